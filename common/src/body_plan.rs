@@ -1,0 +1,398 @@
+//! The body plan: a genome expanded into a concrete robot (spec sections 1 and 3).
+//!
+//! Frames: the body frame has its origin at the body cuboid's centre, x forward, y up,
+//! z right. Each link's own frame has its origin at its joint, the link running along +z to
+//! its tip. A link's pose in its parent's frame at joint angle `q` is
+//! `Translation(anchor) * Rotation(axis, q) * rest`: `anchor` and `axis` are in the parent
+//! frame, `rest` is the link's orientation at `q = 0`. `docs/model.md` draws all of this.
+//!
+//! No physics-engine types appear here: the simulator and the drawings both consume this.
+
+use crate::genome::Morphology;
+use crate::mass::{self, MassProperties};
+use crate::params::{
+    LINKS_PER_LEG, LINK_AXIS, LINK_LENGTH, LINK_WIDTH, M, MOTOR_DAMPING, MOTOR_MAX_SPEED,
+    MOTOR_MAX_TORQUE, MOTOR_STIFFNESS,
+};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// The hip's neutral angle: at `q0 = HIP_NEUTRAL` the hip link points straight out from the
+/// body side, so the controller's midpoint (vo 0.5) is a symmetric stance.
+pub const HIP_NEUTRAL: f64 = 0.5;
+/// The knee's built-in bend at `q2 = 0`: the lower leg hangs vertically when the upper
+/// and lower joints are both at 0.5 rad (the STATIC stance).
+pub const KNEE_BEND: f64 = FRAC_PI_2 - 1.0;
+
+/// Which side of the body a leg is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Side {
+    /// +z, the encoded side.
+    Right,
+    /// -z, the mirror image.
+    Left,
+}
+
+impl Side {
+    /// 0 for the right side, 1 for the left (the `s` of the gait's phase rule).
+    pub fn index(self) -> usize {
+        match self {
+            Side::Right => 0,
+            Side::Left => 1,
+        }
+    }
+}
+
+/// A joint's drive after the strength multiplier.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointDrive {
+    /// Spring stiffness, Nm/rad.
+    pub stiffness: f64,
+    /// Damping, Nms/rad.
+    pub damping: f64,
+    /// Torque limit, Nm.
+    pub max_torque: f64,
+    /// Speed limit wmax, rad/s (sets the gait amplitude).
+    pub max_speed: f64,
+}
+
+/// One link of one leg.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkPlan {
+    /// Length along the link's +z, m (after the length multiplier).
+    pub length: f64,
+    /// Square tube outer width, m (after the width multiplier).
+    pub width: f64,
+    /// Tube wall thickness, m.
+    pub wall: f64,
+    /// Joint position in the parent's frame.
+    pub anchor: Vector3<f64>,
+    /// Hinge axis in the parent's frame (unit).
+    pub axis: Unit<Vector3<f64>>,
+    /// Orientation of the link frame relative to the parent frame at joint angle 0.
+    pub rest: UnitQuaternion<f64>,
+    /// The joint's drive.
+    pub drive: JointDrive,
+    /// Tube plus the motor at the tip, in the link frame.
+    pub mass: MassProperties,
+}
+
+impl LinkPlan {
+    /// This link's pose in its parent's frame at joint angle `q`.
+    pub fn pose_in_parent(&self, q: f64) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::from(self.anchor),
+            UnitQuaternion::from_axis_angle(&self.axis, q) * self.rest,
+        )
+    }
+
+    /// The eight corners of the link's cuboid in its own frame.
+    pub fn corners(&self) -> [Vector3<f64>; 8] {
+        let h = 0.5 * self.width;
+        cuboid_corners(Vector3::new(-h, -h, 0.0), Vector3::new(h, h, self.length))
+    }
+}
+
+/// One leg: three links from the body outwards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LegPlan {
+    /// Side of the body.
+    pub side: Side,
+    /// Position along the side, 0 at the front.
+    pub index: usize,
+    /// `u = 1 - 2 i / (n - 1)`: +1 at the front leg, -1 at the back.
+    pub u: f64,
+    /// Gait phase `phi`: 0 or pi, alternating with `(index + side) mod 2`.
+    pub phase: f64,
+    /// Hip (0), upper leg (1), lower leg (2). Link 0's parent is the body.
+    pub links: [LinkPlan; LINKS_PER_LEG],
+}
+
+impl LegPlan {
+    /// Poses of the three links in the body frame for joint angles `q`.
+    pub fn link_poses(&self, q: [f64; LINKS_PER_LEG]) -> [Isometry3<f64>; LINKS_PER_LEG] {
+        let p0 = self.links[0].pose_in_parent(q[0]);
+        let p1 = p0 * self.links[1].pose_in_parent(q[1]);
+        let p2 = p1 * self.links[2].pose_in_parent(q[2]);
+        [p0, p1, p2]
+    }
+}
+
+/// A genome expanded into a robot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodyPlan {
+    /// Body cuboid half-extents (x, y, z), m.
+    pub body_half_extents: Vector3<f64>,
+    /// Where avionics and payload sit, body frame, m.
+    pub payload_position: Vector3<f64>,
+    /// Payload mass, kg (from the design brief).
+    pub payload_mass: f64,
+    /// Body foam plus avionics plus payload, body frame.
+    pub body_mass: MassProperties,
+    /// Legs: right side front to back, then left side front to back.
+    pub legs: Vec<LegPlan>,
+}
+
+/// Mirror in the body's x-y plane (z to -z).
+fn mirror_m() -> Matrix3<f64> {
+    Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0))
+}
+
+/// The flip of a link's own y axis that keeps a mirrored link frame right-handed.
+fn mirror_d() -> Matrix3<f64> {
+    Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, 1.0))
+}
+
+fn rotation(m: Matrix3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m))
+}
+
+impl BodyPlan {
+    /// Expands a morphology, carrying `payload_mass` kg of payload.
+    pub fn new(m: &Morphology, payload_mass: f64) -> Self {
+        let half = Vector3::new(m.get(M::BodyHalfX), m.get(M::BodyHalfY), m.get(M::BodyHalfZ));
+        let payload_position =
+            Vector3::new(m.get(M::PayloadX) * half.x, 0.0, m.get(M::PayloadZ) * half.z);
+        let n = m.legs_per_side();
+        let mut legs = Vec::with_capacity(2 * n);
+        for i in 0..n {
+            legs.push(right_leg(m, half, i, n));
+        }
+        for i in 0..n {
+            legs.push(mirror_leg(&legs[i]));
+        }
+        Self {
+            body_half_extents: half,
+            payload_position,
+            payload_mass,
+            body_mass: mass::body(half, payload_position, payload_mass),
+            legs,
+        }
+    }
+
+    /// Total mass including payload, kg.
+    pub fn total_mass(&self) -> f64 {
+        self.body_mass.mass + self.legs.iter().flat_map(|l| &l.links).map(|l| l.mass.mass).sum::<f64>()
+    }
+
+    /// Mass without the payload (what the brief limits), kg.
+    pub fn mass_without_payload(&self) -> f64 {
+        self.total_mass() - self.payload_mass
+    }
+
+    /// Legs per side.
+    pub fn legs_per_side(&self) -> usize {
+        self.legs.len() / 2
+    }
+
+    /// The body cuboid's corners in the body frame.
+    pub fn body_corners(&self) -> [Vector3<f64>; 8] {
+        cuboid_corners(-self.body_half_extents, self.body_half_extents)
+    }
+}
+
+fn cuboid_corners(lo: Vector3<f64>, hi: Vector3<f64>) -> [Vector3<f64>; 8] {
+    std::array::from_fn(|i| {
+        Vector3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
+/// `u_i = 1 - 2 i / (n - 1)`: the leg's position along the body, +1 front, -1 back.
+pub fn leg_position(i: usize, n: usize) -> f64 {
+    1.0 - 2.0 * i as f64 / (n - 1) as f64
+}
+
+/// Gait phase of leg `i` on side `s`: 0 or pi alternating with `(i + s) mod 2`, so that
+/// neighbouring and opposite legs are in antiphase.
+pub fn leg_phase(i: usize, side: Side) -> f64 {
+    if (i + side.index()) % 2 == 0 {
+        0.0
+    } else {
+        PI
+    }
+}
+
+fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan {
+    let u = leg_position(i, n);
+    let u2 = u * u;
+    let attach = Vector3::new(
+        half.x * (m.get(M::SpreadLinFwd) * u + m.get(M::SpreadQuadFwd) * u2),
+        m.get(M::AttachHeight) * half.y,
+        half.z + m.get(M::SpreadLinRight) * u + m.get(M::SpreadQuadRight) * u2,
+    );
+    // Positive pitch tilts the leg's outward direction (+z) upwards.
+    let root = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -m.get(M::AttachPitch));
+    let length_scale = 1.0 + m.get(M::LengthMult) * u2;
+    let width_scale = 1.0 + m.get(M::WidthMult) * u2;
+    let strength_scale = 1.0 + 0.1 * m.get(M::StrengthMult) * u2;
+    let wall = m.get(M::WallThickness);
+
+    let links = std::array::from_fn(|k| {
+        let length = m.get(LINK_LENGTH[k]) * length_scale;
+        let width = m.get(LINK_WIDTH[k]) * width_scale;
+        let drive = JointDrive {
+            stiffness: m.get(MOTOR_STIFFNESS[k]) * strength_scale,
+            damping: m.get(MOTOR_DAMPING[k]),
+            max_torque: m.get(MOTOR_MAX_TORQUE[k]) * strength_scale,
+            max_speed: m.get(MOTOR_MAX_SPEED[k]),
+        };
+        let genome_axis = Unit::new_normalize(Vector3::from(LINK_AXIS[k].map(|p| m.get(p))));
+        let (anchor, axis, rest) = match k {
+            // The hip's parent is the body: its axis is given in the leg root frame.
+            0 => {
+                let axis = root * genome_axis;
+                (attach, axis, UnitQuaternion::from_axis_angle(&axis, -HIP_NEUTRAL) * root)
+            }
+            // The others sit at their parent's tip.
+            _ => {
+                let parent_length = m.get(LINK_LENGTH[k - 1]) * length_scale;
+                let bend = if k == 2 { KNEE_BEND } else { 0.0 };
+                (
+                    Vector3::new(0.0, 0.0, parent_length),
+                    genome_axis,
+                    UnitQuaternion::from_axis_angle(&genome_axis, bend),
+                )
+            }
+        };
+        LinkPlan {
+            length,
+            width,
+            wall,
+            anchor,
+            axis,
+            rest,
+            drive,
+            mass: mass::link(length, width, wall, drive.max_torque, drive.max_speed),
+        }
+    });
+    LegPlan {
+        side: Side::Right,
+        index: i,
+        u,
+        phase: leg_phase(i, Side::Right),
+        links,
+    }
+}
+
+/// The left leg opposite `right`. Positions mirror in z; hinge axes mirror as the
+/// pseudovectors they are, so equal joint angles give mirror-image poses and the gait
+/// drives both sides forward.
+fn mirror_leg(right: &LegPlan) -> LegPlan {
+    let (mm, d) = (mirror_m(), mirror_d());
+    let mut links = right.links;
+    for (k, link) in links.iter_mut().enumerate() {
+        // The hip's parent (the body) is mirrored by M; the other parents are link frames,
+        // whose mirror image is re-expressed with D to stay right-handed.
+        let (point_map, axis_map) = if k == 0 { (mm, -mm) } else { (d, -d) };
+        link.anchor = point_map * link.anchor;
+        link.axis = Unit::new_normalize(axis_map * link.axis.into_inner());
+        let r = link.rest.to_rotation_matrix().into_inner();
+        link.rest = rotation(if k == 0 { mm * r * d } else { d * r * d });
+    }
+    LegPlan {
+        side: Side::Left,
+        index: right.index,
+        u: right.u,
+        phase: leg_phase(right.index, Side::Left),
+        links,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::genome::Genome;
+    use crate::rng::{CandidateSeed, Purpose};
+    use crate::variation::Scheme;
+    use proptest::prelude::*;
+
+    pub(crate) fn max_genome() -> Genome {
+        serde_json::from_str(include_str!("../../designs/max.json")).unwrap()
+    }
+
+    proptest! {
+        /// Every point of every left link is the mirror image of the same point on the
+        /// right link, at any joint angles.
+        #[test]
+        fn left_side_mirrors_the_right(
+            seed in any::<u64>(),
+            q in prop::array::uniform3(-1.5f64..2.5),
+        ) {
+            let g = Genome::random(Scheme::Static, &mut CandidateSeed::new(seed, 0).rng(Purpose::RandomGenome));
+            let plan = BodyPlan::new(&g.morphology, 10.0);
+            let n = plan.legs_per_side();
+            for i in 0..n {
+                let (r, l) = (&plan.legs[i], &plan.legs[n + i]);
+                prop_assert_eq!((r.side, l.side), (Side::Right, Side::Left));
+                prop_assert_eq!(r.index, l.index);
+                prop_assert!(r.phase != l.phase, "opposite legs must be in antiphase");
+                for ((pr, pl), (lr, ll)) in r.link_poses(q).iter().zip(l.link_poses(q)).zip(r.links.iter().zip(&l.links)) {
+                    prop_assert_eq!(lr.mass, ll.mass);
+                    for z in [0.0, lr.length] {
+                        let wr = pr * nalgebra::Point3::new(0.0, 0.0, z);
+                        let wl = pl * nalgebra::Point3::new(0.0, 0.0, z);
+                        prop_assert!((wl.coords - mirror_m() * wr.coords).norm() < 1e-9);
+                    }
+                    // A point off the axis: (a, b, z) on the right is (a, -b, z) on the left.
+                    let wr = pr * nalgebra::Point3::new(0.01, 0.02, 0.3);
+                    let wl = pl * nalgebra::Point3::new(0.01, -0.02, 0.3);
+                    prop_assert!((wl.coords - mirror_m() * wr.coords).norm() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stance_conventions_hold_on_a_straight_leg() {
+        // Ideal axes, no pitch: at q = (0.5, 0.5, 0.5) the hip points straight out (+z),
+        // the upper leg slopes down 0.5 rad, the lower leg hangs vertically.
+        let mut g = max_genome();
+        let m = &mut g.morphology;
+        for (p, v) in [
+            (M::AttachPitch, 0.0),
+            (M::Link0AxisX, 0.0), (M::Link0AxisY, 1.0), (M::Link0AxisZ, 0.0),
+            (M::Link1AxisX, 1.0), (M::Link1AxisY, 0.0), (M::Link1AxisZ, 0.0),
+            (M::Link2AxisX, 1.0), (M::Link2AxisY, 0.0), (M::Link2AxisZ, 0.0),
+        ] {
+            m.set_clamped(p, v);
+        }
+        let plan = BodyPlan::new(m, 10.0);
+        for leg in &plan.legs {
+            let out = if leg.side == Side::Right { 1.0 } else { -1.0 };
+            let poses = leg.link_poses([0.5; 3]);
+            let dir = |k: usize| poses[k].rotation * Vector3::z();
+            assert!((dir(0) - Vector3::new(0.0, 0.0, out)).norm() < 1e-12);
+            assert!((dir(1) - Vector3::new(0.0, -(0.5f64).sin(), out * (0.5f64).cos())).norm() < 1e-12);
+            assert!((dir(2) - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12);
+            // A larger hip angle swings the leg forward on both sides.
+            let fwd = leg.link_poses([0.8, 0.5, 0.5])[0].rotation * Vector3::z();
+            assert!(fwd.x > 0.0);
+            // A larger upper-leg angle pushes the foot down on both sides.
+            let foot = |q: [f64; 3]| (leg.link_poses(q)[2] * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length)).y;
+            assert!(foot([0.5, 0.7, 0.5]) < foot([0.5, 0.5, 0.5]));
+        }
+    }
+
+    #[test]
+    fn quadratic_variations_follow_u() {
+        let g = max_genome();
+        let m = &g.morphology;
+        let plan = BodyPlan::new(m, 10.0);
+        let n = plan.legs_per_side();
+        for leg in &plan.legs[..n] {
+            let u2 = leg.u * leg.u;
+            let l1 = m.get(M::Link1Length) * (1.0 + m.get(M::LengthMult) * u2);
+            assert!((leg.links[1].length - l1).abs() < 1e-12);
+            let k = m.get(M::Motor2Stiffness) * (1.0 + 0.1 * m.get(M::StrengthMult) * u2);
+            assert!((leg.links[2].drive.stiffness - k).abs() < 1e-9);
+            let x = m.get(M::BodyHalfX) * (m.get(M::SpreadLinFwd) * leg.u + m.get(M::SpreadQuadFwd) * u2);
+            assert!((leg.links[0].anchor.x - x).abs() < 1e-12);
+        }
+        assert_eq!(plan.legs[0].u, 1.0);
+        assert_eq!(plan.legs[n - 1].u, -1.0);
+    }
+}

@@ -1,0 +1,328 @@
+//! The experiment file (TOML): which runs to make and their settings, with the paper's
+//! values as defaults. Validated on load; every error names the field and what it allows.
+
+use crate::brief::DesignBrief;
+use crate::features::{FeatureGrid, FeatureRange, FEATURE_NAMES};
+use crate::rng::RunSeed;
+use crate::variation::{MutationRates, Scheme};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Settings every run of an experiment shares.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunSettings {
+    /// Candidates that must pass the brief before generations start.
+    pub initial_population: u32,
+    /// Offspring per generation.
+    pub offspring_per_generation: u32,
+    /// Generations after the initial population.
+    pub generations: u32,
+    /// Trial length, s.
+    pub trial_seconds: f64,
+    /// Controller update rate, Hz.
+    pub control_hz: f64,
+    /// Physics steps per control step (the physics step is `1 / (control_hz * substeps)`).
+    pub physics_substeps: u32,
+    /// Iterations of the ES scheme's 1+1 evolution strategy.
+    pub es_iterations: u32,
+}
+
+impl Default for RunSettings {
+    fn default() -> Self {
+        Self {
+            initial_population: 400,
+            offspring_per_generation: 60,
+            generations: 4000,
+            trial_seconds: 5.0,
+            control_hz: 30.0,
+            physics_substeps: 1,
+            es_iterations: 20,
+        }
+    }
+}
+
+impl RunSettings {
+    /// Control steps in one trial.
+    pub fn control_steps(&self) -> u32 {
+        (self.trial_seconds * self.control_hz).round() as u32
+    }
+
+    /// The physics step, s.
+    pub fn physics_dt(&self) -> f64 {
+        1.0 / (self.control_hz * f64::from(self.physics_substeps))
+    }
+}
+
+/// An experiment: schemes x repeats runs, each with its own seed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Experiment {
+    /// A name for humans and reports.
+    pub name: String,
+    /// Schemes to compare.
+    pub schemes: Vec<Scheme>,
+    /// Runs per scheme.
+    pub repeats: u32,
+    /// Base seed: repeat `r` of every scheme uses seed `seed + r` unless `seeds` is given
+    /// (so schemes are compared on common random numbers).
+    pub seed: u64,
+    /// Explicit per-repeat seeds, one per repeat.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seeds: Option<Vec<u64>>,
+    /// Shared run settings.
+    #[serde(default)]
+    pub run: RunSettings,
+    /// The design brief.
+    #[serde(default)]
+    pub brief: DesignBrief,
+    /// Feature binning.
+    #[serde(default)]
+    pub features: FeatureGrid,
+    /// Mutation rates per group.
+    #[serde(default)]
+    pub mutation: MutationRates,
+}
+
+/// One run of an experiment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RunSpec {
+    /// Its scheme.
+    pub scheme: Scheme,
+    /// Repeat number, from 0.
+    pub repeat: u32,
+    /// Its seed.
+    pub seed: RunSeed,
+}
+
+/// Why an experiment file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    #[error("cannot read experiment file {path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("invalid experiment file {path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("invalid experiment: `{field}` {problem}")]
+    Invalid { field: String, problem: String },
+}
+
+fn invalid(field: impl Into<String>, problem: impl Into<String>) -> ExperimentError {
+    ExperimentError::Invalid {
+        field: field.into(),
+        problem: problem.into(),
+    }
+}
+
+fn check_int(field: &str, v: u32, min: u32, max: u32) -> Result<(), ExperimentError> {
+    if v < min || v > max {
+        return Err(invalid(field, format!("is {v}; allowed: {min} to {max}")));
+    }
+    Ok(())
+}
+
+fn check_real(field: &str, v: f64, min: f64, max: f64) -> Result<(), ExperimentError> {
+    if !v.is_finite() {
+        return Err(invalid(field, format!("is {v}; it must be a finite number")));
+    }
+    if v < min || v > max {
+        return Err(invalid(field, format!("is {v}; allowed: {min} to {max}")));
+    }
+    Ok(())
+}
+
+impl Experiment {
+    /// Parses and validates TOML text.
+    pub fn from_toml(text: &str) -> Result<Self, ExperimentError> {
+        let e: Experiment = toml::from_str(text).map_err(|e| ExperimentError::Parse {
+            path: "<text>".into(),
+            message: e.to_string(),
+        })?;
+        e.validate()?;
+        Ok(e)
+    }
+
+    /// Reads, parses and validates an experiment file.
+    pub fn load(path: &Path) -> Result<Self, ExperimentError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ExperimentError::Io {
+            path: path.display().to_string(),
+            source: e,
+        })?;
+        Self::from_toml(&text).map_err(|e| match e {
+            ExperimentError::Parse { message, .. } => ExperimentError::Parse {
+                path: path.display().to_string(),
+                message,
+            },
+            other => other,
+        })
+    }
+
+    /// The paper's full experiment (3 schemes x 20 repeats, 4000 generations).
+    pub fn paper() -> Self {
+        Self::from_toml(include_str!("../../experiments/paper.toml")).expect("the shipped paper experiment is valid")
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ExperimentError> {
+        if self.name.trim().is_empty() {
+            return Err(invalid("name", "is empty"));
+        }
+        if self.schemes.is_empty() {
+            return Err(invalid("schemes", "is empty; list one or more of static, genome, es"));
+        }
+        for (i, s) in self.schemes.iter().enumerate() {
+            if self.schemes[..i].contains(s) {
+                return Err(invalid("schemes", format!("lists `{s}` twice")));
+            }
+        }
+        check_int("repeats", self.repeats, 1, 1000)?;
+        if let Some(seeds) = &self.seeds {
+            if seeds.len() != self.repeats as usize {
+                return Err(invalid(
+                    "seeds",
+                    format!("has {} entries; it needs one per repeat ({})", seeds.len(), self.repeats),
+                ));
+            }
+        }
+        let r = &self.run;
+        check_int("run.initial_population", r.initial_population, 1, 1_000_000)?;
+        check_int("run.offspring_per_generation", r.offspring_per_generation, 1, 1_000_000)?;
+        check_int("run.generations", r.generations, 0, 10_000_000)?;
+        check_real("run.trial_seconds", r.trial_seconds, 0.1, 600.0)?;
+        check_real("run.control_hz", r.control_hz, 1.0, 1000.0)?;
+        check_int("run.physics_substeps", r.physics_substeps, 1, 64)?;
+        check_int("run.es_iterations", r.es_iterations, 1, 10_000)?;
+        let b = &self.brief;
+        check_real("brief.max_mass", b.max_mass, 0.0, 10_000.0)?;
+        check_real("brief.min_height", b.min_height, 0.0, 100.0)?;
+        check_real("brief.min_speed", b.min_speed, 0.0, 100.0)?;
+        check_real("brief.payload", b.payload, 0.0, 10_000.0)?;
+        check_int("features.bins", self.features.bins, 1, 16)?;
+        for (name, range) in FEATURE_NAMES.iter().zip(self.features.ranges()) {
+            check_feature_range(name, range)?;
+        }
+        let m = &self.mutation;
+        for (name, v) in [
+            ("body", m.body),
+            ("leg_count", m.leg_count),
+            ("leg_offset", m.leg_offset),
+            ("leg", m.leg),
+            ("link", m.link),
+            ("motor", m.motor),
+        ] {
+            check_real(&format!("mutation.{name}"), v, 0.0, 1.0)?;
+        }
+        Ok(())
+    }
+
+    /// Every run, scheme-major, repeats in order.
+    pub fn runs(&self) -> Vec<RunSpec> {
+        self.schemes
+            .iter()
+            .flat_map(|&scheme| {
+                (0..self.repeats).map(move |repeat| RunSpec {
+                    scheme,
+                    repeat,
+                    seed: RunSeed(match &self.seeds {
+                        Some(s) => s[repeat as usize],
+                        None => self.seed.wrapping_add(u64::from(repeat)),
+                    }),
+                })
+            })
+            .collect()
+    }
+
+    /// Trials one run evaluates for its generations (the initial population needs more:
+    /// it draws until `initial_population` pass).
+    pub fn offspring_per_run(&self) -> u64 {
+        u64::from(self.run.generations) * u64::from(self.run.offspring_per_generation)
+    }
+}
+
+fn check_feature_range(name: &str, r: FeatureRange) -> Result<(), ExperimentError> {
+    if !(r.min.is_finite() && r.max.is_finite()) {
+        return Err(invalid(format!("features.{name}"), "must have finite min and max"));
+    }
+    if r.min >= r.max {
+        return Err(invalid(
+            format!("features.{name}"),
+            format!("has min {} >= max {}; min must be below max", r.min, r.max),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "name = \"t\"\nschemes = [\"static\"]\nrepeats = 2\nseed = 5\n";
+
+    fn err(text: &str) -> String {
+        Experiment::from_toml(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn paper_defaults() {
+        let e = Experiment::paper();
+        assert_eq!(e.runs().len(), 60);
+        assert_eq!(e.run, RunSettings::default());
+        assert_eq!(e.run.control_steps(), 150);
+        assert_eq!(e.offspring_per_run(), 240_000);
+        assert_eq!(e.brief, DesignBrief::default());
+        assert_eq!(e.features, FeatureGrid::default());
+        assert_eq!(e.mutation, MutationRates::default());
+    }
+
+    #[test]
+    fn minimal_file_gets_paper_defaults_and_seeds() {
+        let e = Experiment::from_toml(MINIMAL).unwrap();
+        assert_eq!(e.run.generations, 4000);
+        let seeds: Vec<u64> = e.runs().iter().map(|r| r.seed.0).collect();
+        assert_eq!(seeds, [5, 6]);
+    }
+
+    #[test]
+    fn missing_field_is_named() {
+        let e = err("name = \"t\"\nschemes = [\"static\"]\nseed = 5\n");
+        assert!(e.contains("missing field `repeats`"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_is_named_with_the_range() {
+        let e = err(&format!("{MINIMAL}[run]\nphysics_substeps = 0\n"));
+        assert!(e.contains("`run.physics_substeps` is 0; allowed: 1 to 64"), "{e}");
+        let e = err(&format!("{MINIMAL}[mutation]\nlink = 1.5\n"));
+        assert!(e.contains("`mutation.link` is 1.5; allowed: 0 to 1"), "{e}");
+        let e = err(&format!("{MINIMAL}[features.total_mass]\nmin = 80.0\nmax = 75.0\n"));
+        assert!(e.contains("`features.total_mass` has min 80 >= max 75"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_is_named() {
+        let e = err(&format!("{MINIMAL}[run]\ngenerations = \"many\"\n"));
+        assert!(e.contains("generations") && e.contains("invalid type"), "{e}");
+        let e = err("name = \"t\"\nschemes = [\"walk\"]\nrepeats = 1\nseed = 1\n");
+        assert!(e.contains("walk") && e.contains("schemes"), "{e}");
+    }
+
+    #[test]
+    fn nan_is_named() {
+        let e = err(&format!("{MINIMAL}[brief]\nmin_height = nan\n"));
+        assert!(e.contains("`brief.min_height` is NaN; it must be a finite number"), "{e}");
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let e = err(&format!("{MINIMAL}[run]\ngenerationz = 3\n"));
+        assert!(e.contains("unknown field `generationz`"), "{e}");
+    }
+
+    #[test]
+    fn seeds_must_match_repeats() {
+        let e = err(&format!("{MINIMAL}seeds = [1]\n"));
+        assert!(e.contains("`seeds` has 1 entries; it needs one per repeat (2)"), "{e}");
+    }
+}
