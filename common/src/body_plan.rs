@@ -150,9 +150,16 @@ fn rotation(m: Matrix3<f64>) -> UnitQuaternion<f64> {
 impl BodyPlan {
     /// Expands a morphology, carrying `payload_mass` kg of payload.
     pub fn new(m: &Morphology, payload_mass: f64) -> Self {
-        let half = Vector3::new(m.get(M::BodyHalfX), m.get(M::BodyHalfY), m.get(M::BodyHalfZ));
-        let payload_position =
-            Vector3::new(m.get(M::PayloadX) * half.x, 0.0, m.get(M::PayloadZ) * half.z);
+        let half = Vector3::new(
+            m.get(M::BodyHalfX),
+            m.get(M::BodyHalfY),
+            m.get(M::BodyHalfZ),
+        );
+        let payload_position = Vector3::new(
+            m.get(M::PayloadX) * half.x,
+            0.0,
+            m.get(M::PayloadZ) * half.z,
+        );
         let n = m.legs_per_side();
         let mut legs = Vec::with_capacity(2 * n);
         for i in 0..n {
@@ -172,7 +179,13 @@ impl BodyPlan {
 
     /// Total mass including payload, kg.
     pub fn total_mass(&self) -> f64 {
-        self.body_mass.mass + self.legs.iter().flat_map(|l| &l.links).map(|l| l.mass.mass).sum::<f64>()
+        self.body_mass.mass
+            + self
+                .legs
+                .iter()
+                .flat_map(|l| &l.links)
+                .map(|l| l.mass.mass)
+                .sum::<f64>()
     }
 
     /// Mass without the payload (what the brief limits), kg.
@@ -209,7 +222,7 @@ pub fn leg_position(i: usize, n: usize) -> f64 {
 /// Gait phase of leg `i` on side `s`: 0 or pi alternating with `(i + s) mod 2`, so that
 /// neighbouring and opposite legs are in antiphase.
 pub fn leg_phase(i: usize, side: Side) -> f64 {
-    if (i + side.index()) % 2 == 0 {
+    if (i + side.index()).is_multiple_of(2) {
         0.0
     } else {
         PI
@@ -245,7 +258,11 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
             // The hip's parent is the body: its axis is given in the leg root frame.
             0 => {
                 let axis = root * genome_axis;
-                (attach, axis, UnitQuaternion::from_axis_angle(&axis, -HIP_NEUTRAL) * root)
+                (
+                    attach,
+                    axis,
+                    UnitQuaternion::from_axis_angle(&axis, -HIP_NEUTRAL) * root,
+                )
             }
             // The others sit at their parent's tip.
             _ => {
@@ -354,9 +371,15 @@ mod tests {
         let m = &mut g.morphology;
         for (p, v) in [
             (M::AttachPitch, 0.0),
-            (M::Link0AxisX, 0.0), (M::Link0AxisY, 1.0), (M::Link0AxisZ, 0.0),
-            (M::Link1AxisX, 1.0), (M::Link1AxisY, 0.0), (M::Link1AxisZ, 0.0),
-            (M::Link2AxisX, 1.0), (M::Link2AxisY, 0.0), (M::Link2AxisZ, 0.0),
+            (M::Link0AxisX, 0.0),
+            (M::Link0AxisY, 1.0),
+            (M::Link0AxisZ, 0.0),
+            (M::Link1AxisX, 1.0),
+            (M::Link1AxisY, 0.0),
+            (M::Link1AxisZ, 0.0),
+            (M::Link2AxisX, 1.0),
+            (M::Link2AxisY, 0.0),
+            (M::Link2AxisZ, 0.0),
         ] {
             m.set_clamped(p, v);
         }
@@ -366,13 +389,17 @@ mod tests {
             let poses = leg.link_poses([0.5; 3]);
             let dir = |k: usize| poses[k].rotation * Vector3::z();
             assert!((dir(0) - Vector3::new(0.0, 0.0, out)).norm() < 1e-12);
-            assert!((dir(1) - Vector3::new(0.0, -(0.5f64).sin(), out * (0.5f64).cos())).norm() < 1e-12);
+            assert!(
+                (dir(1) - Vector3::new(0.0, -(0.5f64).sin(), out * (0.5f64).cos())).norm() < 1e-12
+            );
             assert!((dir(2) - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12);
             // A larger hip angle swings the leg forward on both sides.
             let fwd = leg.link_poses([0.8, 0.5, 0.5])[0].rotation * Vector3::z();
             assert!(fwd.x > 0.0);
             // A larger upper-leg angle pushes the foot down on both sides.
-            let foot = |q: [f64; 3]| (leg.link_poses(q)[2] * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length)).y;
+            let foot = |q: [f64; 3]| {
+                (leg.link_poses(q)[2] * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length)).y
+            };
             assert!(foot([0.5, 0.7, 0.5]) < foot([0.5, 0.5, 0.5]));
         }
     }
@@ -389,7 +416,8 @@ mod tests {
             assert!((leg.links[1].length - l1).abs() < 1e-12);
             let k = m.get(M::Motor2Stiffness) * (1.0 + 0.1 * m.get(M::StrengthMult) * u2);
             assert!((leg.links[2].drive.stiffness - k).abs() < 1e-9);
-            let x = m.get(M::BodyHalfX) * (m.get(M::SpreadLinFwd) * leg.u + m.get(M::SpreadQuadFwd) * u2);
+            let x = m.get(M::BodyHalfX)
+                * (m.get(M::SpreadLinFwd) * leg.u + m.get(M::SpreadQuadFwd) * u2);
             assert!((leg.links[0].anchor.x - x).abs() < 1e-12);
         }
         assert_eq!(plan.legs[0].u, 1.0);

@@ -81,17 +81,23 @@ impl fmt::Display for Violation {
             Constraint::Mass => write!(
                 f,
                 "mass without payload {:.2} kg exceeds {:.2} kg by {:.2} kg",
-                self.value, self.limit, self.excess()
+                self.value,
+                self.limit,
+                self.excess()
             ),
             Constraint::Height => write!(
                 f,
                 "height {:.3} m is below {:.3} m by {:.3} m",
-                self.value, self.limit, self.excess()
+                self.value,
+                self.limit,
+                self.excess()
             ),
             Constraint::Speed => write!(
                 f,
                 "average speed {:.3} m/s is below {:.3} m/s by {:.3} m/s",
-                self.value, self.limit, self.excess()
+                self.value,
+                self.limit,
+                self.excess()
             ),
         }
     }

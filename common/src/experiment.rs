@@ -125,7 +125,10 @@ fn check_int(field: &str, v: u32, min: u32, max: u32) -> Result<(), ExperimentEr
 
 fn check_real(field: &str, v: f64, min: f64, max: f64) -> Result<(), ExperimentError> {
     if !v.is_finite() {
-        return Err(invalid(field, format!("is {v}; it must be a finite number")));
+        return Err(invalid(
+            field,
+            format!("is {v}; it must be a finite number"),
+        ));
     }
     if v < min || v > max {
         return Err(invalid(field, format!("is {v}; allowed: {min} to {max}")));
@@ -161,7 +164,8 @@ impl Experiment {
 
     /// The paper's full experiment (3 schemes x 20 repeats, 4000 generations).
     pub fn paper() -> Self {
-        Self::from_toml(include_str!("../../experiments/paper.toml")).expect("the shipped paper experiment is valid")
+        Self::from_toml(include_str!("../../experiments/paper.toml"))
+            .expect("the shipped paper experiment is valid")
     }
 
     /// Checks every field; the error names the first bad one.
@@ -170,7 +174,10 @@ impl Experiment {
             return Err(invalid("name", "is empty"));
         }
         if self.schemes.is_empty() {
-            return Err(invalid("schemes", "is empty; list one or more of static, genome, es"));
+            return Err(invalid(
+                "schemes",
+                "is empty; list one or more of static, genome, es",
+            ));
         }
         for (i, s) in self.schemes.iter().enumerate() {
             if self.schemes[..i].contains(s) {
@@ -182,13 +189,22 @@ impl Experiment {
             if seeds.len() != self.repeats as usize {
                 return Err(invalid(
                     "seeds",
-                    format!("has {} entries; it needs one per repeat ({})", seeds.len(), self.repeats),
+                    format!(
+                        "has {} entries; it needs one per repeat ({})",
+                        seeds.len(),
+                        self.repeats
+                    ),
                 ));
             }
         }
         let r = &self.run;
         check_int("run.initial_population", r.initial_population, 1, 1_000_000)?;
-        check_int("run.offspring_per_generation", r.offspring_per_generation, 1, 1_000_000)?;
+        check_int(
+            "run.offspring_per_generation",
+            r.offspring_per_generation,
+            1,
+            1_000_000,
+        )?;
         check_int("run.generations", r.generations, 0, 10_000_000)?;
         check_real("run.trial_seconds", r.trial_seconds, 0.1, 600.0)?;
         check_real("run.control_hz", r.control_hz, 1.0, 1000.0)?;
@@ -243,7 +259,10 @@ impl Experiment {
 
 fn check_feature_range(name: &str, r: FeatureRange) -> Result<(), ExperimentError> {
     if !(r.min.is_finite() && r.max.is_finite()) {
-        return Err(invalid(format!("features.{name}"), "must have finite min and max"));
+        return Err(invalid(
+            format!("features.{name}"),
+            "must have finite min and max",
+        ));
     }
     if r.min >= r.max {
         return Err(invalid(
@@ -293,17 +312,28 @@ mod tests {
     #[test]
     fn out_of_range_is_named_with_the_range() {
         let e = err(&format!("{MINIMAL}[run]\nphysics_substeps = 0\n"));
-        assert!(e.contains("`run.physics_substeps` is 0; allowed: 1 to 64"), "{e}");
+        assert!(
+            e.contains("`run.physics_substeps` is 0; allowed: 1 to 64"),
+            "{e}"
+        );
         let e = err(&format!("{MINIMAL}[mutation]\nlink = 1.5\n"));
         assert!(e.contains("`mutation.link` is 1.5; allowed: 0 to 1"), "{e}");
-        let e = err(&format!("{MINIMAL}[features.total_mass]\nmin = 80.0\nmax = 75.0\n"));
-        assert!(e.contains("`features.total_mass` has min 80 >= max 75"), "{e}");
+        let e = err(&format!(
+            "{MINIMAL}[features.total_mass]\nmin = 80.0\nmax = 75.0\n"
+        ));
+        assert!(
+            e.contains("`features.total_mass` has min 80 >= max 75"),
+            "{e}"
+        );
     }
 
     #[test]
     fn wrong_type_is_named() {
         let e = err(&format!("{MINIMAL}[run]\ngenerations = \"many\"\n"));
-        assert!(e.contains("generations") && e.contains("invalid type"), "{e}");
+        assert!(
+            e.contains("generations") && e.contains("invalid type"),
+            "{e}"
+        );
         let e = err("name = \"t\"\nschemes = [\"walk\"]\nrepeats = 1\nseed = 1\n");
         assert!(e.contains("walk") && e.contains("schemes"), "{e}");
     }
@@ -311,7 +341,10 @@ mod tests {
     #[test]
     fn nan_is_named() {
         let e = err(&format!("{MINIMAL}[brief]\nmin_height = nan\n"));
-        assert!(e.contains("`brief.min_height` is NaN; it must be a finite number"), "{e}");
+        assert!(
+            e.contains("`brief.min_height` is NaN; it must be a finite number"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -323,6 +356,9 @@ mod tests {
     #[test]
     fn seeds_must_match_repeats() {
         let e = err(&format!("{MINIMAL}seeds = [1]\n"));
-        assert!(e.contains("`seeds` has 1 entries; it needs one per repeat (2)"), "{e}");
+        assert!(
+            e.contains("`seeds` has 1 entries; it needs one per repeat (2)"),
+            "{e}"
+        );
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::body_plan::BodyPlan;
 use crate::genome::Morphology;
-use crate::params::{M, LINK_LENGTH};
+use crate::params::{LINK_LENGTH, M};
 use serde::{Deserialize, Serialize};
 
 /// Number of features.

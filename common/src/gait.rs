@@ -43,7 +43,11 @@ mod tests {
         let n = plan.legs_per_side();
         let t = 0.3;
         let target = |i: usize, side: Side| {
-            let leg = plan.legs.iter().find(|l| l.index == i && l.side == side).unwrap();
+            let leg = plan
+                .legs
+                .iter()
+                .find(|l| l.index == i && l.side == side)
+                .unwrap();
             leg_targets(&g.controller, leg, t)[0] - g.controller.get(C::VerticalOffset0)
         };
         for i in 0..n {
@@ -68,10 +72,16 @@ mod tests {
         let q = leg_targets(&g.controller, leg, t_fwd);
         let dq0 = leg_targets(&g.controller, leg, t_fwd + 1e-6)[0] - q[0];
         assert!(dq0 > 0.0, "hip should be swinging forward");
-        assert!(q[1] < g.controller.get(C::VerticalOffset1), "upper leg raised");
+        assert!(
+            q[1] < g.controller.get(C::VerticalOffset1),
+            "upper leg raised"
+        );
         // Half a cycle later (backward swing) the leg pushes down.
         let q = leg_targets(&g.controller, leg, t_fwd + std::f64::consts::PI / sf);
-        assert!(q[1] > g.controller.get(C::VerticalOffset1), "upper leg pushed down");
+        assert!(
+            q[1] > g.controller.get(C::VerticalOffset1),
+            "upper leg pushed down"
+        );
     }
 
     #[test]

@@ -317,7 +317,9 @@ mod tests {
     }
 
     fn parse_err(json: &str) -> String {
-        serde_json::from_str::<Genome>(json).unwrap_err().to_string()
+        serde_json::from_str::<Genome>(json)
+            .unwrap_err()
+            .to_string()
     }
 
     #[test]
@@ -384,7 +386,9 @@ mod tests {
         v["controller"]["stride_frequency"] = serde_json::json!("fast");
         let e = parse_err(&v.to_string());
         assert!(
-            e.contains("controller parameter `stride_frequency` must be a number, found string \"fast\""),
+            e.contains(
+                "controller parameter `stride_frequency` must be a number, found string \"fast\""
+            ),
             "{e}"
         );
     }
@@ -411,7 +415,10 @@ mod tests {
         let mut v: serde_json::Value = serde_json::from_str(&max_json()).unwrap();
         v["morphology"]["legs_per_side"] = serde_json::json!(3.5);
         let e = parse_err(&v.to_string());
-        assert!(e.contains("`legs_per_side` = 3.5 must be an integer"), "{e}");
+        assert!(
+            e.contains("`legs_per_side` = 3.5 must be an integer"),
+            "{e}"
+        );
     }
 
     #[test]

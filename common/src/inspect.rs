@@ -43,7 +43,9 @@ impl Inspection {
         let pose = StartPose::new(&plan, &genome.controller);
         let features = Features::of(&genome.morphology, &plan);
         // Features of a valid genome are always finite.
-        let bins = grid.bins_of(&features).expect("features of a valid genome are finite");
+        let bins = grid
+            .bins_of(&features)
+            .expect("features of a valid genome are finite");
         let total_mass = plan.total_mass();
         Self {
             legs_per_side: plan.legs_per_side(),
@@ -64,14 +66,29 @@ impl Inspection {
 impl fmt::Display for Inspection {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "legs per side         {}", self.legs_per_side)?;
-        writeln!(f, "body mass             {:.2} kg (foam, avionics, payload)", self.body_mass)?;
+        writeln!(
+            f,
+            "body mass             {:.2} kg (foam, avionics, payload)",
+            self.body_mass
+        )?;
         writeln!(f, "legs mass             {:.2} kg", self.legs_mass)?;
-        writeln!(f, "mass without payload  {:.2} kg", self.mass_without_payload)?;
+        writeln!(
+            f,
+            "mass without payload  {:.2} kg",
+            self.mass_without_payload
+        )?;
         writeln!(f, "total mass            {:.2} kg", self.total_mass)?;
         writeln!(f, "height (start pose)   {:.3} m", self.height)?;
         writeln!(f, "body centre height    {:.3} m", self.body_height)?;
         for (j, name) in FEATURE_NAMES.iter().enumerate() {
-            writeln!(f, "d{} {:<18} {:<10.4} bin {}", j + 1, name, self.features.0[j], self.bins.0[j])?;
+            writeln!(
+                f,
+                "d{} {:<18} {:<10.4} bin {}",
+                j + 1,
+                name,
+                self.features.0[j],
+                self.bins.0[j]
+            )?;
         }
         writeln!(f, "cell                  {}", self.cell.0)?;
         if self.violations.is_empty() {

@@ -44,7 +44,11 @@ impl MassProperties {
         Self {
             mass,
             com: centre,
-            inertia: Matrix3::from_diagonal(&Vector3::new(k * (b2 + c2), k * (a2 + c2), k * (a2 + b2))),
+            inertia: Matrix3::from_diagonal(&Vector3::new(
+                k * (b2 + c2),
+                k * (a2 + c2),
+                k * (a2 + b2),
+            )),
         }
     }
 
@@ -127,8 +131,12 @@ pub fn link(length: f64, width: f64, wall: f64, max_torque: f64, max_speed: f64)
 /// avionics and payload as point masses at `payload_at`.
 pub fn body(half: Vector3<f64>, payload_at: Vector3<f64>, payload: f64) -> MassProperties {
     let size = 2.0 * half;
-    MassProperties::cuboid(BODY_DENSITY * size.x * size.y * size.z, size, Vector3::zeros())
-        .combine(&MassProperties::point(AVIONICS_MASS + payload, payload_at))
+    MassProperties::cuboid(
+        BODY_DENSITY * size.x * size.y * size.z,
+        size,
+        Vector3::zeros(),
+    )
+    .combine(&MassProperties::point(AVIONICS_MASS + payload, payload_at))
 }
 
 #[cfg(test)]

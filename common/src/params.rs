@@ -283,6 +283,38 @@ pub fn find(table: &'static [ParamSpec], name: &str) -> Option<usize> {
     table.iter().position(|p| p.name == name)
 }
 
+/// The parameter tables as Markdown (for `docs/model.md`, which a test keeps identical).
+pub fn markdown_table() -> String {
+    let mut out = String::from(
+        "| parameter | min | max | unit | kind | mutation group | what it does |\n|---|---|---|---|---|---|---|\n",
+    );
+    for p in MORPHOLOGY_PARAMS.iter().chain(CONTROLLER_PARAMS) {
+        let kind = match p.kind {
+            ParamKind::Real => "real",
+            ParamKind::Integer => "integer",
+        };
+        out.push_str(&format!(
+            "| `{}` | {} | {} | {} | {} | {} | {} |\n",
+            p.name,
+            fmt_bound(p.min),
+            fmt_bound(p.max),
+            if p.unit.is_empty() { "-" } else { p.unit },
+            kind,
+            p.group.name(),
+            p.doc
+        ));
+    }
+    out
+}
+
+fn fmt_bound(v: f64) -> String {
+    if (v.abs() - FRAC_PI_2).abs() < 1e-15 {
+        format!("{}pi/2", if v < 0.0 { "-" } else { "" })
+    } else {
+        format!("{v}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,7 +27,11 @@ pub struct StartPose {
 impl StartPose {
     /// Poses `plan` with `controller`'s targets at t = 0.
     pub fn new(plan: &BodyPlan, controller: &Controller) -> Self {
-        let joint_angles: Vec<_> = plan.legs.iter().map(|leg| leg_targets(controller, leg, 0.0)).collect();
+        let joint_angles: Vec<_> = plan
+            .legs
+            .iter()
+            .map(|leg| leg_targets(controller, leg, 0.0))
+            .collect();
         let in_body: Vec<_> = plan
             .legs
             .iter()
@@ -36,7 +40,10 @@ impl StartPose {
             .collect();
         // Every corner of every part, in the body frame.
         let corners = plan.body_corners().into_iter().chain(
-            plan.legs.iter().zip(&in_body).flat_map(|(leg, poses)| leg_corners(leg, poses)),
+            plan.legs
+                .iter()
+                .zip(&in_body)
+                .flat_map(|(leg, poses)| leg_corners(leg, poses)),
         );
         let (mut lowest, mut top) = (Vector3::new(0.0, f64::INFINITY, 0.0), f64::NEG_INFINITY);
         for c in corners {

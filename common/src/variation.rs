@@ -158,7 +158,7 @@ impl Scheme {
 
 impl std::fmt::Display for Scheme {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+        f.pad(self.name())
     }
 }
 
@@ -251,29 +251,61 @@ mod tests {
 
     #[test]
     fn same_seed_same_genome_different_candidate_different_genome() {
-        let a = Genome::random(Scheme::Genome, &mut CandidateSeed::new(11, 5).rng(Purpose::RandomGenome));
-        let b = Genome::random(Scheme::Genome, &mut CandidateSeed::new(11, 5).rng(Purpose::RandomGenome));
-        let c = Genome::random(Scheme::Genome, &mut CandidateSeed::new(11, 6).rng(Purpose::RandomGenome));
+        let a = Genome::random(
+            Scheme::Genome,
+            &mut CandidateSeed::new(11, 5).rng(Purpose::RandomGenome),
+        );
+        let b = Genome::random(
+            Scheme::Genome,
+            &mut CandidateSeed::new(11, 5).rng(Purpose::RandomGenome),
+        );
+        let c = Genome::random(
+            Scheme::Genome,
+            &mut CandidateSeed::new(11, 6).rng(Purpose::RandomGenome),
+        );
         assert_eq!(a, b);
         assert_ne!(a, c);
-        for (x, y) in a.morphology.values().iter().zip(c.morphology.values()) {
-            if MORPHOLOGY_PARAMS.iter().all(|p| p.kind == ParamKind::Real) {
-                assert_ne!(x, y);
-            }
-        }
+        // Different streams differ in every real parameter.
+        let differing = a
+            .morphology
+            .values()
+            .iter()
+            .zip(c.morphology.values())
+            .filter(|(x, y)| x != y)
+            .count();
+        assert!(
+            differing
+                >= MORPHOLOGY_PARAMS
+                    .iter()
+                    .filter(|p| p.kind == ParamKind::Real)
+                    .count()
+        );
     }
 
     #[test]
     fn zero_rates_leave_the_morphology_alone() {
         let mut rng = CandidateSeed::new(1, 1).rng(Purpose::Reproduction);
         let parent = Genome::random(Scheme::Static, &mut rng);
-        let rates = MutationRates { body: 0.0, leg_count: 0.0, leg_offset: 0.0, leg: 0.0, link: 0.0, motor: 0.0 };
+        let rates = MutationRates {
+            body: 0.0,
+            leg_count: 0.0,
+            leg_offset: 0.0,
+            leg: 0.0,
+            link: 0.0,
+            motor: 0.0,
+        };
         let child = parent.offspring(Scheme::Static, &rates, &mut rng);
         assert_eq!(parent, child);
         // GENOME still mutates every controller parameter.
         let child = parent.offspring(Scheme::Genome, &rates, &mut rng);
         assert_eq!(parent.morphology, child.morphology);
-        for (i, (a, b)) in parent.controller.values().iter().zip(child.controller.values()).enumerate() {
+        for (i, (a, b)) in parent
+            .controller
+            .values()
+            .iter()
+            .zip(child.controller.values())
+            .enumerate()
+        {
             assert_ne!(a, b, "{} did not mutate", CONTROLLER_PARAMS[i].name);
         }
     }
@@ -301,7 +333,9 @@ mod tests {
         let mut rng = CandidateSeed::new(4, 0).rng(Purpose::Reproduction);
         let spec = M::BodyHalfX.spec();
         let n = 4000;
-        let steps: Vec<f64> = (0..n).map(|_| mutate_value(spec, spec.midpoint(), &mut rng) - spec.midpoint()).collect();
+        let steps: Vec<f64> = (0..n)
+            .map(|_| mutate_value(spec, spec.midpoint(), &mut rng) - spec.midpoint())
+            .collect();
         let mean = steps.iter().sum::<f64>() / n as f64;
         let sd = (steps.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
         // Clamping at +-5 sigma is negligible.

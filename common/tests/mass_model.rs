@@ -4,7 +4,8 @@ use strider_common::params::M;
 use strider_common::{BodyPlan, Genome};
 
 fn max() -> Genome {
-    Genome::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json")).unwrap()
+    Genome::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
+        .unwrap()
 }
 
 fn assert_close(what: &str, got: f64, want: f64) {
@@ -51,11 +52,19 @@ fn quadratic_multipliers_change_the_end_legs_only() {
     let front = &plan.legs[0];
     assert_close("front upper length", front.links[1].length, 1.26);
     assert_close("front upper torque", front.links[1].drive.max_torque, 300.0);
-    assert_close("front upper mass", front.links[1].mass.mass, 1.1592 + 0.2 + (90.0f64 / 13000.0).sqrt());
+    assert_close(
+        "front upper mass",
+        front.links[1].mass.mass,
+        1.1592 + 0.2 + (90.0f64 / 13000.0).sqrt(),
+    );
     // Middle leg (u = 0): unchanged.
     let middle = &plan.legs[1];
     assert_eq!(middle.u, 0.0);
-    assert_close("middle upper mass", middle.links[1].mass.mass, 0.966 + 0.2 + (60.0f64 / 13000.0).sqrt());
+    assert_close(
+        "middle upper mass",
+        middle.links[1].mass.mass,
+        0.966 + 0.2 + (60.0f64 / 13000.0).sqrt(),
+    );
 }
 
 #[test]

@@ -7,7 +7,11 @@ use std::process::ExitCode;
 use strider_common::Experiment;
 
 #[derive(Parser)]
-#[command(name = "strider-coordinator", version, about = "Strider coordinator: runs MAP-Elites experiments")]
+#[command(
+    name = "strider-coordinator",
+    version,
+    about = "Strider coordinator: runs MAP-Elites experiments"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -57,7 +61,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 e.brief.payload
             );
             for r in runs {
-                println!("  {:<7} repeat {:>3}  seed {}", r.scheme, r.repeat, r.seed.0);
+                println!(
+                    "  {:<7} repeat {:>3}  seed {}",
+                    r.scheme, r.repeat, r.seed.0
+                );
             }
             Ok(())
         }

@@ -9,7 +9,11 @@ use strider_common::inspect::Inspection;
 use strider_common::{Experiment, FeatureGrid, Genome};
 
 #[derive(Parser)]
-#[command(name = "strider-worker", version, about = "Strider worker: evaluates robot designs")]
+#[command(
+    name = "strider-worker",
+    version,
+    about = "Strider worker: evaluates robot designs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -28,6 +32,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Print the genome's parameter table (Markdown): names, ranges, units, groups.
+    Params,
 }
 
 fn main() -> ExitCode {
@@ -42,7 +48,11 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Inspect { genome, experiment, json } => {
+        Command::Inspect {
+            genome,
+            experiment,
+            json,
+        } => {
             let g = Genome::load(&genome)?;
             let (brief, grid) = match experiment {
                 Some(path) => {
@@ -53,10 +63,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let report = Inspection::of(&g, &brief, &grid);
             if json {
-                println!("{}", serde_json::to_string_pretty(&report).context("serialising the report")?);
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&report).context("serialising the report")?
+                );
             } else {
                 println!("{report}");
             }
+            Ok(())
+        }
+        Command::Params => {
+            print!("{}", strider_common::params::markdown_table());
             Ok(())
         }
     }

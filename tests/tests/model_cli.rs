@@ -1,0 +1,170 @@
+//! The model's command-line surface: `strider-worker inspect` and
+//! `strider-coordinator check`, on good and bad files.
+
+use std::path::PathBuf;
+use strider_tests::{run, workspace_root};
+
+fn temp_file(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("strider-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn max_json() -> serde_json::Value {
+    serde_json::from_str(
+        &std::fs::read_to_string(workspace_root().join("designs/max.json")).unwrap(),
+    )
+    .unwrap()
+}
+
+/// Runs `inspect` on a genome text and returns (exit code, stderr).
+fn inspect_text(name: &str, text: &str) -> (i32, String) {
+    let path = temp_file(name, text);
+    let out = run("strider-worker", &["inspect", path.to_str().unwrap()]);
+    (
+        out.status.code().unwrap(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn inspect_max_reports_mass_height_and_cell() {
+    let out = run("strider-worker", &["inspect", "designs/max.json", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The reference design: a hexapod about 2.2 m tall and about 60 kg (docs/model.md).
+    assert_eq!(r["legs_per_side"], 3);
+    let mass = r["mass_without_payload"].as_f64().unwrap();
+    assert!((mass - 51.165_258).abs() < 1e-5, "{mass}");
+    let height = r["height"].as_f64().unwrap();
+    assert!((2.1..2.3).contains(&height), "{height}");
+    assert_eq!(r["violations"].as_array().unwrap().len(), 0);
+    assert_eq!(r["cell"], 13887);
+
+    let table = run("strider-worker", &["inspect", "designs/max.json"]);
+    let text = String::from_utf8(table.stdout).unwrap();
+    assert!(text.contains("static brief checks   pass"), "{text}");
+}
+
+#[test]
+fn inspect_names_a_missing_parameter() {
+    let mut g = max_json();
+    g["morphology"]
+        .as_object_mut()
+        .unwrap()
+        .remove("wall_thickness");
+    let (code, err) = inspect_text("missing.json", &g.to_string());
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("missing morphology parameter(s): wall_thickness"),
+        "{err}"
+    );
+}
+
+#[test]
+fn inspect_names_an_out_of_range_value() {
+    let mut g = max_json();
+    g["morphology"]["legs_per_side"] = serde_json::json!(9);
+    let (code, err) = inspect_text("range.json", &g.to_string());
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("`legs_per_side` = 9 is outside its range [2, 6]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn inspect_names_a_wrong_type() {
+    let mut g = max_json();
+    g["morphology"]["motor0_damping"] = serde_json::json!(true);
+    let (code, err) = inspect_text("type.json", &g.to_string());
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("`motor0_damping` must be a number, found boolean true"),
+        "{err}"
+    );
+}
+
+#[test]
+fn inspect_names_a_nan() {
+    // JSON cannot carry NaN; TOML genome files can.
+    let mut text = String::from("[morphology]\n");
+    let g = max_json();
+    for (k, v) in g["morphology"].as_object().unwrap() {
+        let v = if k == "link2_width" {
+            "nan".to_string()
+        } else {
+            v.to_string()
+        };
+        text.push_str(&format!("{k} = {v}\n"));
+    }
+    text.push_str("[controller]\n");
+    for (k, v) in g["controller"].as_object().unwrap() {
+        text.push_str(&format!("{k} = {v}\n"));
+    }
+    let (code, err) = inspect_text("nan.toml", &text);
+    assert_eq!(code, 2);
+    assert!(err.contains("`link2_width` is NaN"), "{err}");
+}
+
+#[test]
+fn inspect_reports_an_unreadable_file() {
+    let out = run(
+        "strider-worker",
+        &["inspect", "designs/does-not-exist.json"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cannot read genome file designs/does-not-exist.json"),
+        "{err}"
+    );
+}
+
+#[test]
+fn check_lists_the_paper_runs() {
+    let out = run("strider-coordinator", &["check", "experiments/paper.toml"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("experiment `paper`: 60 runs"), "{text}");
+    assert!(text.contains("es      repeat  19  seed 20"), "{text}");
+}
+
+#[test]
+fn check_refuses_a_bad_experiment_by_field() {
+    let path = temp_file(
+        "bad.toml",
+        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[run]\ncontrol_hz = 0.0\n",
+    );
+    let out = run("strider-coordinator", &["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("`run.control_hz` is 0; allowed: 1 to 1000"),
+        "{err}"
+    );
+}
+
+#[test]
+fn docs_parameter_table_matches_the_code() {
+    let doc = std::fs::read_to_string(workspace_root().join("docs/model.md")).unwrap();
+    let begin = doc.find("<!-- params:begin -->\n").expect("begin marker")
+        + "<!-- params:begin -->\n".len();
+    let end = doc.find("<!-- params:end -->").expect("end marker");
+    let out = run("strider-worker", &["params"]);
+    assert_eq!(
+        &doc[begin..end],
+        String::from_utf8(out.stdout).unwrap(),
+        "docs/model.md's parameter table is stale: paste `strider-worker params` between the markers"
+    );
+}
