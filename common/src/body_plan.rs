@@ -20,9 +20,15 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// The hip's neutral angle: at `q0 = HIP_NEUTRAL` the hip link points straight out from the
 /// body side, so the controller's midpoint (vo 0.5) is a symmetric stance.
 pub const HIP_NEUTRAL: f64 = 0.5;
-/// The knee's built-in bend at `q2 = 0`: the lower leg hangs vertically when the upper
-/// and lower joints are both at 0.5 rad (the STATIC stance).
-pub const KNEE_BEND: f64 = FRAC_PI_2 - 1.0;
+/// The knee's bend at `q2 = 0`: the lower leg at a right angle below the upper leg's line.
+/// A positive `q2` opens the knee (turns the lower leg up and outward), the opposite sense
+/// to `q1`, so at `q1 = q2` the lower leg keeps its absolute angle: vertical at the STATIC
+/// stance (both 0.5 rad) and through the whole stride when both joints follow the same
+/// sinusoid, the upper leg alone lifting and lowering the foot.
+pub const KNEE_BEND: f64 = FRAC_PI_2;
+
+/// Smallest gap between the hip roots of a left and a right leg, m.
+pub const ATTACH_CLEARANCE: f64 = 0.02;
 
 /// Which side of the body a leg is on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -232,15 +238,18 @@ pub fn leg_phase(i: usize, side: Side) -> f64 {
 fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan {
     let u = leg_position(i, n);
     let u2 = u * u;
+    let width_scale = 1.0 + m.get(M::WidthMult) * u2;
+    // An inward offset may put the leg under the body, but never across the centreline:
+    // the two sides' hip roots keep ATTACH_CLEARANCE between them.
+    let min_z = 0.5 * m.get(LINK_WIDTH[0]) * width_scale + 0.5 * ATTACH_CLEARANCE;
     let attach = Vector3::new(
         half.x * (m.get(M::SpreadLinFwd) * u + m.get(M::SpreadQuadFwd) * u2),
         m.get(M::AttachHeight) * half.y,
-        half.z + m.get(M::SpreadLinRight) * u + m.get(M::SpreadQuadRight) * u2,
+        (half.z + m.get(M::SpreadLinRight) * u + m.get(M::SpreadQuadRight) * u2).max(min_z),
     );
     // Positive pitch tilts the leg's outward direction (+z) upwards.
     let root = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -m.get(M::AttachPitch));
     let length_scale = 1.0 + m.get(M::LengthMult) * u2;
-    let width_scale = 1.0 + m.get(M::WidthMult) * u2;
     let strength_scale = 1.0 + 0.1 * m.get(M::StrengthMult) * u2;
     let wall = m.get(M::WallThickness);
 
@@ -264,16 +273,19 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
                     UnitQuaternion::from_axis_angle(&axis, -HIP_NEUTRAL) * root,
                 )
             }
-            // The others sit at their parent's tip.
-            _ => {
-                let parent_length = m.get(LINK_LENGTH[k - 1]) * length_scale;
-                let bend = if k == 2 { KNEE_BEND } else { 0.0 };
-                (
-                    Vector3::new(0.0, 0.0, parent_length),
-                    genome_axis,
-                    UnitQuaternion::from_axis_angle(&genome_axis, bend),
-                )
-            }
+            // The upper leg sits at the hip link's tip; positive turns it down.
+            1 => (
+                Vector3::new(0.0, 0.0, m.get(LINK_LENGTH[0]) * length_scale),
+                genome_axis,
+                UnitQuaternion::identity(),
+            ),
+            // The lower leg sits at the upper leg's tip; positive opens the knee, so its
+            // hinge turns about the reversed axis.
+            _ => (
+                Vector3::new(0.0, 0.0, m.get(LINK_LENGTH[1]) * length_scale),
+                -genome_axis,
+                UnitQuaternion::from_axis_angle(&genome_axis, KNEE_BEND),
+            ),
         };
         LinkPlan {
             length,
@@ -398,9 +410,19 @@ mod tests {
             assert!(fwd.x > 0.0);
             // A larger upper-leg angle pushes the foot down on both sides.
             let foot = |q: [f64; 3]| {
-                (leg.link_poses(q)[2] * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length)).y
+                leg.link_poses(q)[2] * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length)
             };
-            assert!(foot([0.5, 0.7, 0.5]) < foot([0.5, 0.5, 0.5]));
+            assert!(foot([0.5, 0.7, 0.5]).y < foot([0.5, 0.5, 0.5]).y);
+            // A larger lower-leg angle opens the knee: the foot swings outward.
+            assert!(foot([0.5, 0.5, 0.7]).z * out > foot([0.5, 0.5, 0.5]).z * out);
+            // Equal upper and lower angles keep the lower leg vertical.
+            for q in [0.1, 0.5, 1.1] {
+                let d = leg.link_poses([0.5, q, q])[2].rotation * Vector3::z();
+                assert!(
+                    (d - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12,
+                    "{q}: {d}"
+                );
+            }
         }
     }
 

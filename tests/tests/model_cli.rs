@@ -41,9 +41,10 @@ fn inspect_max_reports_mass_height_and_cell() {
     // The reference design: a hexapod about 2.2 m tall and about 60 kg (docs/model.md).
     assert_eq!(r["legs_per_side"], 3);
     let mass = r["mass_without_payload"].as_f64().unwrap();
-    assert!((mass - 51.165_258).abs() < 1e-5, "{mass}");
+    // 2.0 x 0.2 x 0.4 m of foam (27.2 kg) + 7.5 kg avionics + six legs of 3.232 kg.
+    assert!((mass - 54.093_384).abs() < 1e-5, "{mass}");
     let height = r["height"].as_f64().unwrap();
-    assert!((2.1..2.3).contains(&height), "{height}");
+    assert!((2.2..2.4).contains(&height), "{height}");
     assert_eq!(r["violations"].as_array().unwrap().len(), 0);
     assert_eq!(r["cell"], 13887);
 
