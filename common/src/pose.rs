@@ -27,11 +27,22 @@ pub struct StartPose {
 impl StartPose {
     /// Poses `plan` with `controller`'s targets at t = 0.
     pub fn new(plan: &BodyPlan, controller: &Controller) -> Self {
-        let joint_angles: Vec<_> = plan
-            .legs
-            .iter()
-            .map(|leg| leg_targets(controller, leg, 0.0))
-            .collect();
+        Self::with_angles(
+            plan,
+            plan.legs
+                .iter()
+                .map(|leg| leg_targets(controller, leg, 0.0))
+                .collect(),
+        )
+    }
+
+    /// Poses `plan` with explicit joint angles (three per leg, in the plan's leg order).
+    pub fn with_angles(plan: &BodyPlan, joint_angles: Vec<[f64; LINKS_PER_LEG]>) -> Self {
+        assert_eq!(
+            joint_angles.len(),
+            plan.legs.len(),
+            "one angle triple per leg"
+        );
         let in_body: Vec<_> = plan
             .legs
             .iter()

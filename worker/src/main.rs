@@ -1,12 +1,19 @@
-//! `strider-worker`: the worker process. For now it inspects genomes; simulation and the
-//! coordinator connection come with the trial and service issues.
+//! `strider-worker`: evaluates robot designs. `eval` simulates one genome; `inspect` and
+//! `params` describe genomes without simulating. The coordinator connection comes with the
+//! service issue.
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::num::NonZeroUsize;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use strider_common::inspect::Inspection;
-use strider_common::{Experiment, FeatureGrid, Genome};
+use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
+use strider_worker::batch::default_threads;
+use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
+use strider_worker::survey::Survey;
+use strider_worker::trace::CsvTrace;
 
 #[derive(Parser)]
 #[command(
@@ -21,6 +28,26 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Simulate one genome and print its outcome.
+    Eval {
+        /// Genome file (.json or .toml).
+        genome: PathBuf,
+        /// Controller scheme: static (midpoint gait), genome (the file's gait) or es (tuned).
+        #[arg(long, default_value = "static")]
+        scheme: Scheme,
+        /// Run seed (ES draws its mutations from it).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Take settings, brief and features from this experiment file (paper defaults otherwise).
+        #[arg(long)]
+        experiment: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Write a CSV trace (body pose, joint angles and torques per control step).
+        #[arg(long)]
+        trace: Option<PathBuf>,
+    },
     /// Print a genome's masses, start-pose height, features, cell and static brief checks.
     Inspect {
         /// Genome file (.json or .toml).
@@ -34,6 +61,39 @@ enum Command {
     },
     /// Print the genome's parameter table (Markdown): names, ranges, units, groups.
     Params,
+    /// Print the random genome a run draws as candidate N (JSON).
+    Random {
+        /// Run seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Candidate number.
+        #[arg(long, default_value_t = 0)]
+        candidate: u64,
+        /// Scheme (GENOME also draws a random controller).
+        #[arg(long, default_value = "static")]
+        scheme: Scheme,
+    },
+    /// Evaluate random genomes and report how often each constraint of the brief fails.
+    Survey {
+        /// Genomes to draw.
+        #[arg(long, default_value_t = 1000)]
+        count: usize,
+        /// Controller scheme.
+        #[arg(long, default_value = "static")]
+        scheme: Scheme,
+        /// Run seed the genomes are drawn from.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Threads (all cores by default).
+        #[arg(long)]
+        threads: Option<NonZeroUsize>,
+        /// Take settings, brief and features from this experiment file (paper defaults otherwise).
+        #[arg(long)]
+        experiment: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -46,22 +106,50 @@ fn main() -> ExitCode {
     }
 }
 
+fn context(experiment: Option<&Path>) -> anyhow::Result<EvalContext> {
+    Ok(match experiment {
+        Some(path) => EvalContext::of(&Experiment::load(path)?),
+        None => EvalContext::paper(),
+    })
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Eval {
+            genome,
+            scheme,
+            seed,
+            experiment,
+            json,
+            trace,
+        } => {
+            let g = Genome::load(&genome)?;
+            let ctx = context(experiment.as_deref())?;
+            let cand = CandidateSeed::new(seed, 0);
+            let outcome = evaluate(&ctx, &g, scheme, cand);
+            if let Some(path) = trace {
+                // Replay the reported controller with a trace attached (the trial is
+                // deterministic, so this is the same trial).
+                write_trace(&ctx, &g, outcome.controller(), &path)?;
+            }
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&outcome).context("serialising the outcome")?
+                );
+            } else {
+                print_outcome(&outcome);
+            }
+            Ok(())
+        }
         Command::Inspect {
             genome,
             experiment,
             json,
         } => {
             let g = Genome::load(&genome)?;
-            let (brief, grid) = match experiment {
-                Some(path) => {
-                    let e = Experiment::load(&path)?;
-                    (e.brief, e.features)
-                }
-                None => (Default::default(), FeatureGrid::default()),
-            };
-            let report = Inspection::of(&g, &brief, &grid);
+            let ctx = context(experiment.as_deref())?;
+            let report = Inspection::of(&g, &ctx.brief, &ctx.grid);
             if json {
                 println!(
                     "{}",
@@ -72,9 +160,93 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Survey {
+            count,
+            scheme,
+            seed,
+            threads,
+            experiment,
+            json,
+        } => {
+            let ctx = context(experiment.as_deref())?;
+            let threads = threads.unwrap_or_else(default_threads);
+            let survey = Survey::run(&ctx, scheme, seed, count, threads);
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&survey).context("serialising the survey")?
+                );
+            } else {
+                println!("{survey}");
+            }
+            Ok(())
+        }
+        Command::Random {
+            seed,
+            candidate,
+            scheme,
+        } => {
+            let mut rng = CandidateSeed::new(seed, candidate).rng(Purpose::RandomGenome);
+            println!("{}", Genome::random(scheme, &mut rng).to_json_pretty());
+            Ok(())
+        }
         Command::Params => {
             print!("{}", strider_common::params::markdown_table());
             Ok(())
         }
     }
+}
+
+fn write_trace(
+    ctx: &EvalContext,
+    g: &Genome,
+    controller: &Controller,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+    let file = std::fs::File::create(path)
+        .with_context(|| format!("creating trace file {}", path.display()))?;
+    let mut trace = CsvTrace::new(std::io::BufWriter::new(file), &plan)?;
+    evaluate_controller(ctx, g, &plan, controller, &mut trace);
+    trace
+        .finish()
+        .with_context(|| format!("writing trace file {}", path.display()))
+}
+
+fn print_outcome(o: &Outcome) {
+    println!("outcome          {}", o.kind());
+    if let Some(s) = o.stats() {
+        println!("distance         {:.3} m", s.distance);
+        println!("speed            {:.3} m/s", s.speed);
+        println!("energy           {:.1} J", s.energy);
+        println!("cost of transport {:.4}", s.cost_of_transport);
+        println!("mass             {:.2} kg", s.mass);
+    }
+    match o {
+        Outcome::Valid {
+            fitness,
+            features,
+            cell,
+            ..
+        } => {
+            println!("fitness          {fitness:.4}");
+            println!("features         {:?}", features.0);
+            println!("cell             {}", cell.0);
+        }
+        Outcome::Rejected { violations, .. } => {
+            for v in violations {
+                println!("rejected         {v}");
+            }
+        }
+        Outcome::Invalid {
+            reason, at_time, ..
+        } => {
+            println!("invalid          {reason} at t = {at_time:.3} s");
+        }
+    }
+    let c = o.controller();
+    println!(
+        "controller       {}",
+        serde_json::to_string(c).expect("controller serialises")
+    );
 }

@@ -1,0 +1,51 @@
+//! Runs many candidates on all cores: one trial per thread at a time, results returned in
+//! candidate order. Threads take the next candidate from a shared counter, so a long trial
+//! (ES, many legs) never holds up the others.
+
+use crate::evaluate::{evaluate, EvalContext};
+use std::num::NonZeroUsize;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use strider_common::rng::CandidateSeed;
+use strider_common::{Genome, Outcome, Scheme};
+
+/// One candidate to evaluate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Job {
+    /// Its genome.
+    pub genome: Genome,
+    /// The run's scheme.
+    pub scheme: Scheme,
+    /// Its seed (ES draws from it).
+    pub seed: CandidateSeed,
+}
+
+/// The number of threads to use by default: every core.
+pub fn default_threads() -> NonZeroUsize {
+    std::thread::available_parallelism().unwrap_or(NonZeroUsize::MIN)
+}
+
+/// Evaluates every job on `threads` threads; `outcomes[i]` belongs to `jobs[i]`.
+pub fn evaluate_batch(ctx: &EvalContext, jobs: &[Job], threads: NonZeroUsize) -> Vec<Outcome> {
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<Outcome>>> = jobs.iter().map(|_| Mutex::new(None)).collect();
+    let threads = threads.get().min(jobs.len()).max(1);
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(job) = jobs.get(i) else { break };
+                let outcome = evaluate(ctx, &job.genome, job.scheme, job.seed);
+                *slots[i].lock().expect("no thread panics holding a slot") = Some(outcome);
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .map(|m| {
+            m.into_inner()
+                .expect("slot lock")
+                .expect("every job was evaluated")
+        })
+        .collect()
+}

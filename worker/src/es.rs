@@ -1,0 +1,63 @@
+//! The ES scheme: a 1+1 evolution strategy that tunes one morphology's controller.
+//!
+//! The parent starts as the STATIC controller; each iteration mutates every controller
+//! parameter (the same Gaussian rule as reproduction) and the child replaces the parent if
+//! it ranks strictly higher. The result is the parent at the end: the best found.
+//!
+//! Ranking (**choice**, documented in docs/model.md): valid outcomes by fitness, above
+//! outcomes rejected only for speed (ranked by speed, so the strategy can climb toward the
+//! brief), above everything else. Plain fitness comparison would leave the strategy blind
+//! until a child happened to pass the brief.
+
+use crate::evaluate::{evaluate_controller, EvalContext};
+use rand::Rng;
+use strider_common::brief::Constraint;
+use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::{BodyPlan, Controller, Genome, Outcome};
+
+/// A total order on outcomes for the strategy: (tier, score), higher is better.
+fn rank(o: &Outcome) -> (u8, f64) {
+    match o {
+        Outcome::Valid { fitness, .. } => (2, *fitness),
+        Outcome::Rejected {
+            violations,
+            stats: Some(stats),
+            ..
+        } if violations.iter().all(|v| v.constraint == Constraint::Speed) => (1, stats.speed),
+        _ => (0, 0.0),
+    }
+}
+
+fn better(a: &Outcome, b: &Outcome) -> bool {
+    let (ta, sa) = rank(a);
+    let (tb, sb) = rank(b);
+    ta > tb || (ta == tb && sa > sb)
+}
+
+/// Tunes the controller of `genome`'s morphology; returns the best outcome found.
+pub fn tune_controller(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    seed: CandidateSeed,
+) -> Outcome {
+    tune_with(ctx, genome, plan, &mut seed.rng(Purpose::EvolutionStrategy))
+}
+
+fn tune_with<R: Rng>(ctx: &EvalContext, genome: &Genome, plan: &BodyPlan, rng: &mut R) -> Outcome {
+    let mass_fails = plan.mass_without_payload() > ctx.brief.max_mass;
+    let mut best = evaluate_controller(ctx, genome, plan, &Controller::static_default(), &mut ());
+    if mass_fails {
+        // No controller changes the mass: don't spend 20 trials on it.
+        return best;
+    }
+    for _ in 0..ctx.settings.es_iterations {
+        let mut child = *best.controller();
+        child.mutate_all(rng);
+        let outcome = evaluate_controller(ctx, genome, plan, &child, &mut ());
+        if better(&outcome, &best) {
+            best = outcome;
+        }
+    }
+    best
+}

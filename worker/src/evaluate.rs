@@ -1,0 +1,127 @@
+//! Evaluating a candidate: the brief's static checks, the trial, the speed check, and the
+//! controller scheme (STATIC, GENOME, or ES tuning) around them.
+
+use crate::es::tune_controller;
+use crate::sim::trial::{run_trial, Observer, TrialEnd};
+use strider_common::brief::DesignBrief;
+use strider_common::experiment::{Experiment, RunSettings};
+use strider_common::features::FeatureGrid;
+use strider_common::rng::CandidateSeed;
+use strider_common::{BodyPlan, Controller, Features, Genome, Outcome, Scheme, StartPose};
+
+/// What a run fixes for every evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvalContext {
+    /// Trial length, rates, ES iterations.
+    pub settings: RunSettings,
+    /// Constraints.
+    pub brief: DesignBrief,
+    /// Feature binning.
+    pub grid: FeatureGrid,
+}
+
+impl EvalContext {
+    /// The context of an experiment's runs.
+    pub fn of(e: &Experiment) -> Self {
+        Self {
+            settings: e.run,
+            brief: e.brief,
+            grid: e.features,
+        }
+    }
+
+    /// The paper's settings.
+    pub fn paper() -> Self {
+        Self {
+            settings: RunSettings::default(),
+            brief: DesignBrief::default(),
+            grid: FeatureGrid::default(),
+        }
+    }
+}
+
+/// Evaluates a genome under a scheme. STATIC uses the STATIC controller whatever the
+/// genome holds; GENOME the genome's own; ES tunes from STATIC with the candidate's stream.
+pub fn evaluate(
+    ctx: &EvalContext,
+    genome: &Genome,
+    scheme: Scheme,
+    seed: CandidateSeed,
+) -> Outcome {
+    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    match scheme {
+        Scheme::Static => {
+            evaluate_controller(ctx, genome, &plan, &Controller::static_default(), &mut ())
+        }
+        Scheme::Genome => evaluate_controller(ctx, genome, &plan, &genome.controller, &mut ()),
+        Scheme::Es => tune_controller(ctx, genome, &plan, seed),
+    }
+}
+
+/// Evaluates one morphology with one controller: static checks, trial, speed check.
+pub fn evaluate_controller(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    observer: &mut impl Observer,
+) -> Outcome {
+    let pose = StartPose::new(plan, controller);
+    let violations = ctx.brief.check_model(plan, &pose);
+    if !violations.is_empty() {
+        // A design that cannot meet the brief is not simulated.
+        return Outcome::Rejected {
+            violations,
+            stats: None,
+            controller: *controller,
+        };
+    }
+    let stats = match run_trial(plan, controller, &ctx.settings, observer) {
+        TrialEnd::Completed(stats) => stats,
+        TrialEnd::Stopped { reason, at_time } => {
+            return Outcome::Invalid {
+                reason,
+                at_time,
+                controller: *controller,
+            }
+        }
+    };
+    if stats.distance <= 0.0 {
+        return Outcome::Invalid {
+            reason: strider_common::InvalidReason::NoForwardProgress {
+                distance: stats.distance,
+            },
+            at_time: stats.duration,
+            controller: *controller,
+        };
+    }
+    if let Some(v) = ctx.brief.check_speed(stats.speed) {
+        return Outcome::Rejected {
+            violations: vec![v],
+            stats: Some(stats),
+            controller: *controller,
+        };
+    }
+    let fitness = 1.0 / stats.cost_of_transport;
+    if !fitness.is_finite() {
+        return Outcome::Invalid {
+            reason: strider_common::InvalidReason::NonFinite {
+                what: "fitness".into(),
+            },
+            at_time: stats.duration,
+            controller: *controller,
+        };
+    }
+    let features = Features::of(&genome.morphology, plan);
+    let cell = ctx
+        .grid
+        .cell_of(&features)
+        .expect("features of a valid genome are finite");
+    Outcome::Valid {
+        fitness,
+        stats,
+        features,
+        cell,
+        controller: *controller,
+    }
+}

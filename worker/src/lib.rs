@@ -1,0 +1,8 @@
+//! Strider's worker: simulates candidates in rapier3d and evaluates them under a scheme.
+
+pub mod batch;
+pub mod es;
+pub mod evaluate;
+pub mod sim;
+pub mod survey;
+pub mod trace;

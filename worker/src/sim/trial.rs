@@ -1,0 +1,301 @@
+//! One trial (spec section 3): the robot walks for the trial's duration under its
+//! controller; the energy, distance and cost of transport are measured, and the trial stops
+//! early on a self-contact, a non-finite value or a blow-up.
+//!
+//! Torque accounting. Rapier integrates a joint spring by backward Euler: over a step the
+//! joint receives `tau = k (rest - q_n) - (k dt + d) v_{n+1}` (with `q_n` the angle before
+//! the step and `v_{n+1}` the velocity after it). Before each step the rest point is chosen
+//! so that this torque, predicted with `v_n`, is the spring toward the target clamped to the
+//! joint's limit; after the step the torque actually applied is computed from `v_{n+1}` and
+//! integrated: `E += |tau * v_{n+1}| dt`, the exact work of that torque under rapier's
+//! position update `q_{n+1} = q_n + dt v_{n+1}`.
+
+use super::world::{part_name, RobotWorld, GROUND_TAG, HINGE_DOF_AXIS};
+use ::nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use rapier3d::prelude::*;
+use strider_common::body_plan::BodyPlan;
+use strider_common::experiment::RunSettings;
+use strider_common::gait::leg_targets;
+use strider_common::outcome::{InvalidReason, TrialStats};
+use strider_common::params::LINKS_PER_LEG;
+use strider_common::{Controller, StartPose};
+
+/// Standard gravity, m/s^2.
+pub const GRAVITY: f64 = 9.81;
+/// A generalized velocity beyond this (m/s or rad/s) means the simulation blew up: the
+/// robot's joints are limited to 1.5 rad/s targets and the body walks at a few m/s.
+pub const BLOW_UP_SPEED: f64 = 100.0;
+
+/// How a trial ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrialEnd {
+    /// It ran its full duration.
+    Completed(TrialStats),
+    /// It was stopped.
+    Stopped {
+        /// Why.
+        reason: InvalidReason,
+        /// When, s.
+        at_time: f64,
+    },
+}
+
+/// The state reported to an observer after each control step.
+pub struct Sample<'a> {
+    /// Simulated time, s.
+    pub time: f64,
+    /// The body frame's world pose.
+    pub body: Isometry3<f64>,
+    /// Joint angles, three per leg in the plan's leg order, rad.
+    pub angles: &'a [f64],
+    /// Torques applied during the last physics step, same order, Nm.
+    pub torques: &'a [f64],
+    /// Energy spent so far, J.
+    pub energy: f64,
+    /// The robot's centre of mass in the world, m.
+    pub com: Vector3<f64>,
+}
+
+/// Watches a trial (for traces); the unit type watches nothing.
+pub trait Observer {
+    /// Whether to build samples at all (the plain trial skips the work).
+    const WANTS_SAMPLES: bool = true;
+    /// Called after every control step.
+    fn control_step(&mut self, sample: &Sample<'_>);
+}
+
+impl Observer for () {
+    const WANTS_SAMPLES: bool = false;
+    #[inline]
+    fn control_step(&mut self, _: &Sample<'_>) {}
+}
+
+/// Runs the trial of `plan` under `controller`'s gait.
+pub fn run_trial<O: Observer>(
+    plan: &BodyPlan,
+    controller: &Controller,
+    settings: &RunSettings,
+    observer: &mut O,
+) -> TrialEnd {
+    let start = StartPose::new(plan, controller);
+    run_trial_with(
+        plan,
+        &start,
+        settings,
+        |leg, t| leg_targets(controller, &plan.legs[leg], t),
+        observer,
+    )
+}
+
+/// Runs a trial from `start` with any joint targets: `targets(leg index, t)` gives a leg's
+/// three target angles at control time `t` (the gait in a real trial; tests script others).
+pub fn run_trial_with<O: Observer>(
+    plan: &BodyPlan,
+    start: &StartPose,
+    settings: &RunSettings,
+    targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
+    observer: &mut O,
+) -> TrialEnd {
+    let dt = settings.physics_dt();
+    let mut rw = RobotWorld::new(plan, start, dt);
+    let substeps = settings.physics_substeps as usize;
+    let steps = settings.control_steps() as usize * substeps;
+    let total_mass = plan.total_mass();
+    let com_start = centre_of_mass(&rw);
+
+    let n = rw.joints.len();
+    let mut targets = vec![0.0; n];
+    let mut angles = vec![0.0; n];
+    let mut rests = vec![0.0; n];
+    let mut torques = vec![0.0; n];
+    let mut energy = 0.0;
+
+    for step in 0..steps {
+        let t = step as f64 * dt;
+        if step % substeps == 0 {
+            let control_time = (step / substeps) as f64 / settings.control_hz;
+            for leg_index in 0..plan.legs.len() {
+                let q = targets_at(leg_index, control_time);
+                targets[leg_index * LINKS_PER_LEG..][..LINKS_PER_LEG].copy_from_slice(&q);
+            }
+        }
+        drive_joints(&mut rw, dt, &targets, &mut angles, &mut rests);
+        rw.world.step();
+        let time = t + dt;
+
+        // Applied torques and the work they did.
+        let (mb, _) = rw
+            .world
+            .multibody_joints
+            .get(rw.multibody)
+            .expect("robot multibody");
+        let mut fastest: f64 = 0.0;
+        for v in mb.generalized_velocity().iter() {
+            fastest = fastest.max(f64::from(v.abs()));
+        }
+        if !fastest.is_finite() {
+            return stopped(
+                InvalidReason::NonFinite {
+                    what: "velocity".into(),
+                },
+                time,
+            );
+        }
+        if fastest > BLOW_UP_SPEED {
+            return stopped(InvalidReason::BlowUp { speed: fastest }, time);
+        }
+        for (i, slot) in rw.joints.iter().enumerate() {
+            let link = mb.link(slot.link_id).expect("joint link");
+            let v1 = f64::from(mb.joint_velocity(link)[0]);
+            let tau =
+                slot.stiffness * (rests[i] - angles[i]) - (slot.stiffness * dt + slot.damping) * v1;
+            torques[i] = tau;
+            energy += (tau * v1).abs() * dt;
+        }
+        if !energy.is_finite() {
+            return stopped(
+                InvalidReason::NonFinite {
+                    what: "energy".into(),
+                },
+                time,
+            );
+        }
+        if let Some((first, second)) = self_contact(&rw) {
+            return stopped(
+                InvalidReason::SelfContact {
+                    first: part_name(plan, first),
+                    second: part_name(plan, second),
+                },
+                time,
+            );
+        }
+        if O::WANTS_SAMPLES && (step + 1) % substeps == 0 {
+            let (mb, _) = rw
+                .world
+                .multibody_joints
+                .get(rw.multibody)
+                .expect("robot multibody");
+            for (i, slot) in rw.joints.iter().enumerate() {
+                angles[i] = f64::from(
+                    mb.link(slot.link_id).expect("joint link").joint.coords()[HINGE_DOF_AXIS],
+                );
+            }
+            observer.control_step(&Sample {
+                time,
+                body: body_pose(&rw),
+                angles: &angles,
+                torques: &torques,
+                energy,
+                com: centre_of_mass(&rw),
+            });
+        }
+    }
+
+    let com_end = centre_of_mass(&rw);
+    if !com_end.iter().all(|c| c.is_finite()) {
+        return stopped(
+            InvalidReason::NonFinite {
+                what: "position".into(),
+            },
+            settings.trial_seconds,
+        );
+    }
+    let distance = com_end.x - com_start.x;
+    let duration = steps as f64 * dt;
+    TrialEnd::Completed(TrialStats {
+        distance,
+        energy,
+        speed: distance / duration,
+        mass: total_mass,
+        cost_of_transport: energy / (total_mass * GRAVITY * distance),
+        duration,
+    })
+}
+
+fn stopped(reason: InvalidReason, at_time: f64) -> TrialEnd {
+    TrialEnd::Stopped { reason, at_time }
+}
+
+/// Sets every spring's rest point for the coming step: toward the target, with the torque
+/// predicted from the current velocity clamped to the joint's limit. Records the angle
+/// before the step and the rest point used.
+fn drive_joints(
+    rw: &mut RobotWorld,
+    dt: f64,
+    targets: &[f64],
+    angles: &mut [f64],
+    rests: &mut [f64],
+) {
+    let (mb, _) = rw
+        .world
+        .multibody_joints
+        .get_mut(rw.multibody)
+        .expect("robot multibody");
+    for (i, slot) in rw.joints.iter().enumerate() {
+        let link = mb.link(slot.link_id).expect("joint link");
+        let q = f64::from(link.joint.coords()[HINGE_DOF_AXIS]);
+        let v = f64::from(mb.joint_velocity(link)[0]);
+        let k = slot.stiffness;
+        let resist = (k * dt + slot.damping) * v;
+        let wanted = k * (targets[i] - q) - resist;
+        let torque = wanted.clamp(-slot.max_torque, slot.max_torque);
+        let rest = q + (torque + resist) / k;
+        angles[i] = q;
+        rests[i] = rest;
+        mb.link_mut(slot.link_id)
+            .expect("joint link")
+            .joint
+            .set_spring(HINGE_DOF_AXIS, k as f32, rest as f32);
+    }
+}
+
+/// The first pair of robot parts in real contact (not merely predicted), if any.
+fn self_contact(rw: &RobotWorld) -> Option<(u128, u128)> {
+    let colliders = &rw.world.colliders;
+    for pair in rw.world.narrow_phase.contact_pairs() {
+        let a = colliders[pair.collider1].user_data;
+        let b = colliders[pair.collider2].user_data;
+        if a == GROUND_TAG || b == GROUND_TAG {
+            continue;
+        }
+        if pair
+            .manifolds()
+            .iter()
+            .any(|m| m.points.iter().any(|p| p.dist <= 0.0))
+        {
+            return Some((a.min(b), a.max(b)));
+        }
+    }
+    None
+}
+
+fn body_pose(rw: &RobotWorld) -> Isometry3<f64> {
+    let p = rw.world.bodies[rw.parts[0].0].position();
+    let (t, r) = (p.translation, p.rotation);
+    Isometry3::from_parts(
+        Translation3::new(f64::from(t.x), f64::from(t.y), f64::from(t.z)),
+        UnitQuaternion::new_normalize(Quaternion::new(
+            f64::from(r.w),
+            f64::from(r.x),
+            f64::from(r.y),
+            f64::from(r.z),
+        )),
+    )
+}
+
+/// The robot's centre of mass in the world, from each part's pose and local centre.
+fn centre_of_mass(rw: &RobotWorld) -> Vector3<f64> {
+    let mut sum = Vector3::zeros();
+    let mut mass = 0.0;
+    for (handle, local_com, m) in &rw.parts {
+        let p = rw.world.bodies[*handle].position();
+        let c = p.transform_point(Vector::new(
+            local_com.x as f32,
+            local_com.y as f32,
+            local_com.z as f32,
+        ));
+        sum += Vector3::new(f64::from(c.x), f64::from(c.y), f64::from(c.z)) * *m;
+        mass += m;
+    }
+    sum / mass
+}

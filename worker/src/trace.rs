@@ -1,0 +1,61 @@
+//! A trial trace as CSV: one row per control step with the body pose and every joint's
+//! angle and torque, for plots and replays.
+
+use crate::sim::trial::{Observer, Sample};
+use std::io::{self, Write};
+use strider_common::body_plan::{BodyPlan, Side};
+
+/// Writes a trace row per control step.
+pub struct CsvTrace<W: Write> {
+    out: W,
+    error: Option<io::Error>,
+}
+
+impl<W: Write> CsvTrace<W> {
+    /// Starts a trace of `plan`, writing the header.
+    pub fn new(mut out: W, plan: &BodyPlan) -> io::Result<Self> {
+        let mut header = String::from("time,x,y,z,qw,qx,qy,qz,energy");
+        for leg in &plan.legs {
+            let side = if leg.side == Side::Right { "r" } else { "l" };
+            for k in 0..leg.links.len() {
+                header.push_str(&format!(",{side}{}_q{k}", leg.index));
+            }
+        }
+        for leg in &plan.legs {
+            let side = if leg.side == Side::Right { "r" } else { "l" };
+            for k in 0..leg.links.len() {
+                header.push_str(&format!(",{side}{}_tau{k}", leg.index));
+            }
+        }
+        writeln!(out, "{header}")?;
+        Ok(Self { out, error: None })
+    }
+
+    /// Finishes the trace, reporting the first write error.
+    pub fn finish(mut self) -> io::Result<()> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        self.out.flush()
+    }
+}
+
+impl<W: Write> Observer for CsvTrace<W> {
+    fn control_step(&mut self, s: &Sample<'_>) {
+        if self.error.is_some() {
+            return;
+        }
+        let t = s.body.translation.vector;
+        let r = s.body.rotation;
+        let mut row = format!(
+            "{:.4},{:.5},{:.5},{:.5},{:.6},{:.6},{:.6},{:.6},{:.4}",
+            s.time, t.x, t.y, t.z, r.w, r.i, r.j, r.k, s.energy
+        );
+        for v in s.angles.iter().chain(s.torques) {
+            row.push_str(&format!(",{v:.5}"));
+        }
+        if let Err(e) = writeln!(self.out, "{row}") {
+            self.error = Some(e);
+        }
+    }
+}

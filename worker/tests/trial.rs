@@ -1,0 +1,276 @@
+//! The trial and the evaluation: physics sanity, determinism, schemes, the batch evaluator.
+
+use std::collections::hash_map::DefaultHasher;
+use std::hash::{Hash, Hasher};
+use std::num::NonZeroUsize;
+use strider_common::params::{M, MOTOR_MAX_SPEED};
+use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::{BodyPlan, Controller, Genome, InvalidReason, Outcome, Scheme, StartPose};
+use strider_worker::batch::{evaluate_batch, Job};
+use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
+use strider_worker::sim::trial::{run_trial, run_trial_with, Observer, Sample, TrialEnd, GRAVITY};
+use strider_worker::sim::world::RobotWorld;
+
+fn max() -> Genome {
+    Genome::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
+        .unwrap()
+}
+
+fn ctx() -> EvalContext {
+    EvalContext::paper()
+}
+
+/// A hash of every bit of an outcome (JSON floats round-trip exactly).
+fn outcome_hash(o: &Outcome) -> u64 {
+    let mut h = DefaultHasher::new();
+    serde_json::to_string(o).unwrap().hash(&mut h);
+    h.finish()
+}
+
+/// Records every sample.
+#[derive(Default)]
+struct Recorder {
+    time: Vec<f64>,
+    energy: Vec<f64>,
+    com: Vec<[f64; 3]>,
+    body_y: Vec<f64>,
+}
+
+impl Observer for Recorder {
+    fn control_step(&mut self, s: &Sample<'_>) {
+        self.time.push(s.time);
+        self.energy.push(s.energy);
+        self.com.push([s.com.x, s.com.y, s.com.z]);
+        self.body_y.push(s.body.translation.y);
+    }
+}
+
+#[test]
+fn simulated_mass_equals_the_model() {
+    for seed in 0..5 {
+        let g = Genome::random(
+            Scheme::Static,
+            &mut CandidateSeed::new(seed, 0).rng(Purpose::RandomGenome),
+        );
+        let plan = BodyPlan::new(&g.morphology, 10.0);
+        let pose = StartPose::new(&plan, &g.controller);
+        let world = RobotWorld::new(&plan, &pose, 1.0 / 30.0);
+        let (sim, model) = (world.mass(), plan.total_mass());
+        // rapier stores masses in f32.
+        assert!(
+            (sim - model).abs() < 1e-5 * model,
+            "seed {seed}: simulated {sim} kg, model {model} kg"
+        );
+    }
+}
+
+#[test]
+fn zero_amplitude_robot_stands_still_and_spends_almost_nothing() {
+    let mut g = max();
+    for p in MOTOR_MAX_SPEED {
+        g.morphology.set_clamped(p, 0.0);
+    }
+    let plan = BodyPlan::new(&g.morphology, 10.0);
+    let mut rec = Recorder::default();
+    let end = run_trial(
+        &plan,
+        &Controller::static_default(),
+        &ctx().settings,
+        &mut rec,
+    );
+    let TrialEnd::Completed(stats) = end else {
+        panic!("trial stopped: {end:?}")
+    };
+    println!(
+        "standing MAX: drift {:.4} m, energy {:.2} J",
+        stats.distance, stats.energy
+    );
+    // Settling on its springs under 64 kg: the body sinks a few centimetres, but does not
+    // wander, and the springs do almost no work (walking costs about 2 kJ).
+    assert!(stats.distance.abs() < 0.02, "drifted {} m", stats.distance);
+    assert!(stats.energy < 30.0, "spent {} J standing", stats.energy);
+    let sink = rec.body_y[0] - rec.body_y.last().unwrap();
+    assert!(sink.abs() < 0.1, "body moved {sink} m vertically");
+}
+
+#[test]
+fn lifting_the_robot_costs_at_least_m_g_h() {
+    // MAX crouched (upper and lower legs at 0.3 rad, shins vertical) settles for 0.5 s, then
+    // every leg straightens to 0.8 rad over 3 s and holds: the body rises about 0.29 m and
+    // ends at rest. The joints must have supplied at least the potential energy gained.
+    let g = max();
+    let plan = BodyPlan::new(&g.morphology, 10.0);
+    let (low, high) = (0.3, 0.8);
+    let lift = |t: f64| {
+        let s = ((t - 0.5) / 3.0).clamp(0.0, 1.0);
+        low + (high - low) * (1.0 - (s * std::f64::consts::PI).cos()) / 2.0
+    };
+    let start = StartPose::with_angles(&plan, vec![[0.5, low, low]; plan.legs.len()]);
+    let mut rec = Recorder::default();
+    let end = run_trial_with(
+        &plan,
+        &start,
+        &ctx().settings,
+        |_, t| [0.5, lift(t), lift(t)],
+        &mut rec,
+    );
+    assert!(matches!(end, TrialEnd::Completed(_)), "{end:?}");
+    let settled = rec.time.iter().position(|&t| t >= 0.5).unwrap();
+    let last = rec.com.len() - 1;
+    let rise = rec.com[last][1] - rec.com[settled][1];
+    let work = rec.energy[last] - rec.energy[settled];
+    let m_g_h = plan.total_mass() * GRAVITY * rise;
+    println!("rise {rise:.3} m: m g h = {m_g_h:.1} J, joint energy {work:.1} J");
+    assert!(
+        rise > 0.25,
+        "the body should rise about 0.29 m, rose {rise} m"
+    );
+    assert!(work >= m_g_h, "joints spent {work} J to lift {m_g_h} J");
+}
+
+#[test]
+fn colliding_legs_are_invalid_with_the_self_contact_reason() {
+    // Six legs a side crammed on the shortest body, swinging hard: neighbours must meet.
+    let mut g = max();
+    for (p, v) in [
+        (M::LegsPerSide, 6.0),
+        (M::BodyHalfX, 0.4),
+        (M::SpreadLinFwd, 0.7),
+        (M::Motor0MaxSpeed, 1.5),
+    ] {
+        g.morphology.set_clamped(p, v);
+    }
+    let o = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    match o {
+        Outcome::Invalid {
+            reason: InvalidReason::SelfContact { first, second },
+            at_time,
+            ..
+        } => {
+            println!("self-contact between {first} and {second} at {at_time} s");
+            assert!(first.contains("leg") && second.contains("leg"));
+        }
+        other => panic!("expected a self-contact, got {other:?}"),
+    }
+}
+
+#[test]
+fn max_walks_forward_under_static_and_es() {
+    let g = max();
+    let stat = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    let es = evaluate(&ctx(), &g, Scheme::Es, CandidateSeed::new(0, 0));
+    for (name, o) in [("STATIC", &stat), ("ES", &es)] {
+        let s = o
+            .stats()
+            .unwrap_or_else(|| panic!("{name}: no completed trial: {o:?}"));
+        println!(
+            "MAX {name}: {} distance {:.3} m, speed {:.3} m/s, energy {:.1} J, COT {:.4}",
+            o.kind(),
+            s.distance,
+            s.speed,
+            s.energy,
+            s.cost_of_transport
+        );
+        assert!(s.distance > 2.0, "{name}: MAX walked only {} m", s.distance);
+    }
+    // ES starts from STATIC and keeps the best: never slower (the ranking below valid).
+    assert!(es.stats().unwrap().speed >= stat.stats().unwrap().speed);
+}
+
+#[test]
+fn a_trial_is_bit_identical_when_repeated_and_across_threads() {
+    let genomes: Vec<Genome> = std::iter::once(max())
+        .chain((0..5).map(|i| {
+            Genome::random(
+                Scheme::Genome,
+                &mut CandidateSeed::new(9, i).rng(Purpose::RandomGenome),
+            )
+        }))
+        .collect();
+    let jobs: Vec<Job> = genomes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, g)| {
+            [Scheme::Static, Scheme::Genome].map(|scheme| Job {
+                genome: *g,
+                scheme,
+                seed: CandidateSeed::new(9, i as u64),
+            })
+        })
+        .collect();
+    let sequential: Vec<u64> = jobs
+        .iter()
+        .map(|j| outcome_hash(&evaluate(&ctx(), &j.genome, j.scheme, j.seed)))
+        .collect();
+    let again: Vec<u64> = jobs
+        .iter()
+        .map(|j| outcome_hash(&evaluate(&ctx(), &j.genome, j.scheme, j.seed)))
+        .collect();
+    assert_eq!(sequential, again, "repeated trials differ");
+    // The same jobs four times over on three threads at once, in a different order.
+    let mut many: Vec<Job> = jobs
+        .iter()
+        .rev()
+        .cycle()
+        .take(4 * jobs.len())
+        .copied()
+        .collect();
+    many.rotate_left(3);
+    let parallel = evaluate_batch(&ctx(), &many, NonZeroUsize::new(3).unwrap());
+    for (job, o) in many.iter().zip(&parallel) {
+        let i = jobs.iter().position(|j| j == job).unwrap();
+        assert_eq!(outcome_hash(o), sequential[i], "job {i} differs on threads");
+    }
+}
+
+#[test]
+fn es_is_reproducible_from_its_seed() {
+    let g = max();
+    let a = evaluate(&ctx(), &g, Scheme::Es, CandidateSeed::new(5, 7));
+    let b = evaluate(&ctx(), &g, Scheme::Es, CandidateSeed::new(5, 7));
+    assert_eq!(outcome_hash(&a), outcome_hash(&b));
+    // The tuned controller differs from STATIC (20 iterations always find something on MAX).
+    assert_ne!(a.controller(), &Controller::static_default());
+}
+
+#[test]
+fn batch_returns_outcomes_in_job_order() {
+    let jobs: Vec<Job> = (0..12)
+        .map(|i| {
+            let seed = CandidateSeed::new(3, i);
+            Job {
+                genome: Genome::random(Scheme::Static, &mut seed.rng(Purpose::RandomGenome)),
+                scheme: Scheme::Static,
+                seed,
+            }
+        })
+        .collect();
+    let batch = evaluate_batch(&ctx(), &jobs, NonZeroUsize::new(2).unwrap());
+    assert_eq!(batch.len(), jobs.len());
+    for (j, o) in jobs.iter().zip(&batch) {
+        assert_eq!(o, &evaluate(&ctx(), &j.genome, j.scheme, j.seed));
+    }
+}
+
+#[test]
+fn static_checks_reject_without_simulating() {
+    // A short-legged design cannot stand 2 m tall: rejected for height, no trial figures.
+    let mut g = max();
+    g.morphology.set_clamped(M::Link1Length, 0.4);
+    g.morphology.set_clamped(M::Link2Length, 0.4);
+    let plan = BodyPlan::new(&g.morphology, 10.0);
+    let o = evaluate_controller(&ctx(), &g, &plan, &Controller::static_default(), &mut ());
+    match o {
+        Outcome::Rejected {
+            violations, stats, ..
+        } => {
+            assert!(stats.is_none());
+            assert_eq!(violations.len(), 1);
+            assert_eq!(
+                violations[0].constraint,
+                strider_common::brief::Constraint::Height
+            );
+        }
+        other => panic!("expected a height rejection, got {other:?}"),
+    }
+}
