@@ -105,8 +105,12 @@ impl RobotWorld {
         let mut world = PhysicsWorld::new();
         let p = &mut world.integration_parameters;
         p.dt = dt as f32;
-        // Springs are implicit; a few PGS iterations handle the contacts (notes/rapier.md).
-        p.num_solver_iterations = 4;
+        // One solver substep: rapier's solver iterations are TGS substeps, each re-solving the
+        // multibody dynamics (4x the cost), and the trial's torque accounting assumes the
+        // spring acts over exactly one step of `dt`. Internal PGS iterations resolve the
+        // contacts within it (notes/rapier.md: 1 to 4 stand still and walk smoothly).
+        p.num_solver_iterations = 1;
+        p.num_internal_pgs_iterations = 4;
         p.max_ccd_substeps = 0;
 
         let ground = world

@@ -1,0 +1,25 @@
+//! Runs MAX's STATIC trial N times (default 10), for profilers:
+//! `valgrind --tool=callgrind target/release/examples/profile_trial 10`.
+
+use std::path::Path;
+use strider_common::{BodyPlan, Controller, Genome};
+use strider_worker::evaluate::EvalContext;
+use strider_worker::sim::trial::run_trial;
+
+fn main() {
+    let n: usize = std::env::args()
+        .nth(1)
+        .map_or(10, |a| a.parse().expect("a count"));
+    let g = Genome::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
+        .expect("MAX loads");
+    let ctx = EvalContext::paper();
+    let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+    for _ in 0..n {
+        std::hint::black_box(run_trial(
+            &plan,
+            &Controller::static_default(),
+            &ctx.settings,
+            &mut (),
+        ));
+    }
+}
