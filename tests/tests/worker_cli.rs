@@ -1,0 +1,102 @@
+//! `strider-worker eval`, `random` and `survey` as a user runs them.
+
+use strider_tests::run;
+
+fn stdout(out: &std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+#[test]
+fn eval_max_reports_its_walk_and_writes_a_trace() {
+    let dir = std::env::temp_dir().join(format!("strider-eval-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let trace = dir.join("max.csv");
+    let out = run(
+        "strider-worker",
+        &[
+            "eval",
+            "designs/max.json",
+            "--json",
+            "--trace",
+            trace.to_str().unwrap(),
+        ],
+    );
+    let o: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    // MAX walks but does not reach 1 m/s under STATIC: rejected for speed alone.
+    assert_eq!(o["outcome"], "rejected", "{o}");
+    assert_eq!(o["violations"][0]["constraint"], "speed");
+    let distance = o["stats"]["distance"].as_f64().unwrap();
+    assert!(distance > 2.0, "{distance}");
+
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    // time, pose (7), energy, then 18 angles and 18 torques.
+    assert_eq!(header.len(), 9 + 2 * 18);
+    assert_eq!(header[9], "r0_q0");
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 150, "one row per control step");
+    let last: Vec<f64> = rows[149].split(',').map(|v| v.parse().unwrap()).collect();
+    assert!((last[0] - 5.0).abs() < 1e-9);
+    // The trace's final energy is the outcome's.
+    let energy = o["stats"]["energy"].as_f64().unwrap();
+    assert!(
+        (last[8] - energy).abs() < 1e-3 * energy,
+        "{} vs {energy}",
+        last[8]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn random_regenerates_a_candidate_from_its_seed() {
+    let a = stdout(&run(
+        "strider-worker",
+        &["random", "--seed", "4", "--candidate", "17"],
+    ));
+    let b = stdout(&run(
+        "strider-worker",
+        &["random", "--seed", "4", "--candidate", "17"],
+    ));
+    let c = stdout(&run(
+        "strider-worker",
+        &["random", "--seed", "4", "--candidate", "18"],
+    ));
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    let g: serde_json::Value = serde_json::from_str(&a).unwrap();
+    assert!(g["morphology"]["legs_per_side"].is_u64());
+}
+
+#[test]
+fn survey_counts_add_up() {
+    let out = run(
+        "strider-worker",
+        &["survey", "--count", "200", "--json", "--threads", "2"],
+    );
+    let s: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let n = |k: &str| s[k].as_u64().unwrap();
+    assert_eq!(n("total"), 200);
+    // Every simulated genome ends in exactly one of these.
+    assert_eq!(
+        n("simulated"),
+        n("self_contact") + n("unstable") + n("no_progress") + n("speed_fails") + n("passed")
+    );
+    assert!(n("mass_fails") + n("height_fails") >= 200 - n("simulated"));
+}
+
+#[test]
+fn eval_refuses_an_unknown_scheme() {
+    let out = run(
+        "strider-worker",
+        &["eval", "designs/max.json", "--scheme", "walk"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("unknown scheme `walk`"), "{err}");
+}
