@@ -149,16 +149,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let g = Genome::load(&genome)?;
             let ctx = context(experiment.as_deref())?;
-            let report = Inspection::of(&g, &ctx.brief, &ctx.grid);
-            if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&report).context("serialising the report")?
-                );
-            } else {
-                println!("{report}");
-            }
-            Ok(())
+            emit(&Inspection::of(&g, &ctx.brief, &ctx.grid), json)
         }
         Command::Survey {
             count,
@@ -170,16 +161,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let ctx = context(experiment.as_deref())?;
             let threads = threads.unwrap_or_else(default_threads);
-            let survey = Survey::run(&ctx, scheme, seed, count, threads);
-            if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&survey).context("serialising the survey")?
-                );
-            } else {
-                println!("{survey}");
-            }
-            Ok(())
+            emit(&Survey::run(&ctx, scheme, seed, count, threads), json)
         }
         Command::Random {
             seed,
@@ -195,6 +177,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// Prints a report as pretty JSON or as its table.
+fn emit<T: serde::Serialize + std::fmt::Display>(report: &T, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(report).context("serialising the report")?
+        );
+    } else {
+        println!("{report}");
+    }
+    Ok(())
 }
 
 fn write_trace(

@@ -124,11 +124,7 @@ pub fn run_trial_with<O: Observer>(
         let time = t + dt;
 
         // Applied torques and the work they did.
-        let (mb, _) = rw
-            .world
-            .multibody_joints
-            .get(rw.multibody)
-            .expect("robot multibody");
+        let mb = rw.robot();
         let mut fastest: f64 = 0.0;
         for v in mb.generalized_velocity().iter() {
             fastest = fastest.max(f64::from(v.abs()));
@@ -170,11 +166,7 @@ pub fn run_trial_with<O: Observer>(
             );
         }
         if O::WANTS_SAMPLES && (step + 1) % substeps == 0 {
-            let (mb, _) = rw
-                .world
-                .multibody_joints
-                .get(rw.multibody)
-                .expect("robot multibody");
+            let mb = rw.robot();
             for (i, slot) in rw.joints.iter().enumerate() {
                 angles[i] = f64::from(
                     mb.link(slot.link_id).expect("joint link").joint.coords()[HINGE_DOF_AXIS],
@@ -226,12 +218,18 @@ fn drive_joints(
     angles: &mut [f64],
     rests: &mut [f64],
 ) {
-    let (mb, _) = rw
-        .world
+    // Borrow the multibody and the joint list separately.
+    let RobotWorld {
+        world,
+        multibody,
+        joints,
+        ..
+    } = rw;
+    let (mb, _) = world
         .multibody_joints
-        .get_mut(rw.multibody)
-        .expect("robot multibody");
-    for (i, slot) in rw.joints.iter().enumerate() {
+        .get_mut(*multibody)
+        .expect("the robot's multibody exists");
+    for (i, slot) in joints.iter().enumerate() {
         let link = mb.link(slot.link_id).expect("joint link");
         let q = f64::from(link.joint.coords()[HINGE_DOF_AXIS]);
         let v = f64::from(mb.joint_velocity(link)[0]);

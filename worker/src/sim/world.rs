@@ -229,6 +229,24 @@ impl RobotWorld {
         }
     }
 
+    /// The robot's multibody.
+    pub fn robot(&self) -> &Multibody {
+        self.world
+            .multibody_joints
+            .get(self.multibody)
+            .expect("the robot's multibody exists")
+            .0
+    }
+
+    /// The robot's multibody, mutably.
+    pub fn robot_mut(&mut self) -> &mut Multibody {
+        self.world
+            .multibody_joints
+            .get_mut(self.multibody)
+            .expect("the robot's multibody exists")
+            .0
+    }
+
     /// Total simulated mass of the robot, kg.
     pub fn mass(&self) -> f64 {
         self.parts
