@@ -98,6 +98,11 @@ impl Library {
         self.cells.values().nth(i)
     }
 
+    /// Puts an elite back into its cell (when a library is reloaded from the database).
+    pub fn restore(&mut self, cell: CellIndex, elite: Elite) {
+        self.cells.insert(cell, elite);
+    }
+
     /// Applies one result: a valid design fills an empty cell or replaces a strictly less
     /// fit elite.
     pub fn apply(
@@ -161,15 +166,16 @@ impl Library {
                 Placement::Invalid => stats.invalid += 1,
             }
         }
-        self.fill_summary(&mut stats, cell_count);
-        stats
+        self.summary(stats, cell_count)
     }
 
-    fn fill_summary(&self, stats: &mut GenerationStats, cell_count: u32) {
+    /// `counts` completed with the library's coverage and fitness figures.
+    pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
+        let mut stats = counts;
         stats.elites = self.cells.len();
         stats.coverage = self.cells.len() as f64 / f64::from(cell_count);
         if self.cells.is_empty() {
-            return;
+            return stats;
         }
         // Sum in cell order so the figure is reproducible to the bit.
         let fitness = || self.cells.values().map(|e| e.fitness);
@@ -177,5 +183,6 @@ impl Library {
         stats.max_fitness = fitness().fold(f64::NEG_INFINITY, f64::max);
         stats.min_fitness = fitness().fold(f64::INFINITY, f64::min);
         stats.mean_fitness = stats.qd_score / self.cells.len() as f64;
+        stats
     }
 }

@@ -1,0 +1,198 @@
+//! `strider-coordinator run` on one machine: the same library whatever the thread count,
+//! and nothing lost when the coordinator is killed at any point and restarted.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use strider_coordinator::db::Db;
+use strider_tests::{binary, run, workspace_root};
+
+const TINY: &str = "tests/fixtures/tiny.toml";
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("strider-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run_to_end(db: &Path, workers: &str) {
+    let out = run(
+        "strider-coordinator",
+        &[
+            "run",
+            TINY,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            workers,
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The whole library and every generation's statistics, as exported.
+fn export(db: &Path) -> serde_json::Value {
+    let out = run(
+        "strider-coordinator",
+        &["export", "--db", db.to_str().unwrap()],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The first place two JSON documents differ, or None.
+fn first_difference(a: &serde_json::Value, b: &serde_json::Value, path: &str) -> Option<String> {
+    use serde_json::Value::{Array, Object};
+    match (a, b) {
+        (Object(x), Object(y)) => {
+            x.keys()
+                .chain(y.keys())
+                .find_map(|k| match (x.get(k), y.get(k)) {
+                    (Some(p), Some(q)) => first_difference(p, q, &format!("{path}.{k}")),
+                    _ => Some(format!("{path}.{k}: present on one side only")),
+                })
+        }
+        (Array(x), Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (p, q))| first_difference(p, q, &format!("{path}[{i}]"))),
+        _ if a == b => None,
+        _ => Some(format!("{path}: {a} vs {b}")),
+    }
+}
+
+fn assert_same_library(a: &serde_json::Value, b: &serde_json::Value) {
+    if let Some(d) = first_difference(a, b, "") {
+        panic!("the libraries differ at {d}");
+    }
+}
+
+fn integrity(db: &Path) -> String {
+    tokio::runtime::Runtime::new().unwrap().block_on(async {
+        Db::open(db, false)
+            .await
+            .unwrap()
+            .integrity_check()
+            .await
+            .unwrap()
+    })
+}
+
+#[test]
+fn one_thread_and_two_threads_give_identical_libraries() {
+    let dir = temp_dir("threads");
+    let (one, two) = (dir.join("one.db"), dir.join("two.db"));
+    run_to_end(&one, "1");
+    run_to_end(&two, "2");
+    let (a, b) = (export(&one), export(&two));
+    assert_same_library(&a, &b);
+    // Both runs finished all 8 generations and hold elites.
+    for r in a["runs"].as_array().unwrap() {
+        assert_eq!(r["finished"], true);
+        assert_eq!(
+            r["generations"].as_array().unwrap().len(),
+            9,
+            "generation 0 plus 8"
+        );
+        assert!(!r["elites"].as_array().unwrap().is_empty());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_coordinator_killed_anywhere_resumes_to_the_same_library() {
+    let dir = temp_dir("kill");
+    let reference = dir.join("reference.db");
+    run_to_end(&reference, "2");
+    let expected = export(&reference);
+
+    let db = dir.join("killed.db");
+    // Kill it right after it reports each of these, while it evaluates the next step.
+    for mark in ["initial", "generation 2/8", "generation 5/8"] {
+        let mut child = Command::new(binary("strider-coordinator"))
+            .args(["run", TINY, "--db", db.to_str().unwrap(), "--workers", "2"])
+            .current_dir(workspace_root())
+            .stderr(Stdio::piped())
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap();
+        let stderr = BufReader::new(child.stderr.take().unwrap());
+        let mut seen = false;
+        for line in stderr.lines() {
+            if line.unwrap().contains(mark) {
+                seen = true;
+                break;
+            }
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        assert!(seen, "the run ended before reporting `{mark}`");
+        assert_eq!(integrity(&db), "ok", "after a kill at `{mark}`");
+    }
+    run_to_end(&db, "1");
+    assert_eq!(integrity(&db), "ok");
+    assert_same_library(&export(&db), &expected);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_different_experiment_on_an_existing_database_is_refused() {
+    let dir = temp_dir("mismatch");
+    let db = dir.join("x.db");
+    run_to_end(&db, "2");
+    let other = dir.join("other.toml");
+    let text = std::fs::read_to_string(workspace_root().join(TINY))
+        .unwrap()
+        .replace("generations = 8", "generations = 9");
+    std::fs::write(&other, text).unwrap();
+    let out = run(
+        "strider-coordinator",
+        &["run", other.to_str().unwrap(), "--db", db.to_str().unwrap()],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("run.generations: 8 in the database, 9 given"),
+        "{err}"
+    );
+    // Resuming a finished experiment with its own file changes nothing.
+    let before = export(&db);
+    run_to_end(&db, "2");
+    assert_same_library(&export(&db), &before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn export_csv_has_one_row_per_elite_with_every_parameter() {
+    let dir = temp_dir("csv");
+    let db = dir.join("c.db");
+    run_to_end(&db, "2");
+    let json = export(&db);
+    let elites: usize = json["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["elites"].as_array().unwrap().len())
+        .sum();
+    let out = run(
+        "strider-coordinator",
+        &["export", "--db", db.to_str().unwrap(), "--format", "csv"],
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 6 + 43 + 7);
+    assert_eq!(header[6], "body_half_x");
+    assert_eq!(lines.count(), elites);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
