@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
 use strider_common::Experiment;
+use strider_coordinator::analysis::summary::{summarise, RunResult};
 use strider_coordinator::db::{build_id, first_difference, Db};
 use strider_coordinator::runner::run_experiment;
 use strider_worker::batch::default_threads;
@@ -55,6 +56,13 @@ enum Command {
         #[arg(long, value_enum, default_value = "json")]
         format: Format,
     },
+    /// Summarise an experiment: final figures per scheme, Mann-Whitney tests between
+    /// schemes, the top designs' mean features and controllers, and the design rules.
+    Analyse {
+        /// Database file.
+        #[arg(long)]
+        db: PathBuf,
+    },
     /// Validate an experiment file and list the runs it defines.
     Check {
         /// Experiment file (TOML).
@@ -88,6 +96,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             workers,
         } => runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers)),
         Command::Export { db, run, format } => runtime()?.block_on(export(&db, run, format)),
+        Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
         Command::Check { experiment } => check(&experiment),
     }
 }
@@ -221,6 +230,41 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
             }
         }
     }
+    Ok(())
+}
+
+async fn analyse(path: &Path) -> anyhow::Result<()> {
+    if !path.exists() {
+        bail!("no database at {}", path.display());
+    }
+    let db = Db::open(path, false).await?;
+    let (experiment, _) = db
+        .experiment()
+        .await?
+        .context("the database holds no experiment")?;
+    let runs = db.runs().await?;
+    let mut results = Vec::new();
+    for r in &runs {
+        let Some((_, _, last)) = db.generations(r.id).await?.pop() else {
+            continue; // no generation committed yet
+        };
+        results.push(RunResult {
+            scheme: r.spec.scheme,
+            library: &r.library,
+            last,
+        });
+    }
+    if results.is_empty() {
+        bail!("no run has finished its initial population yet");
+    }
+    let unfinished = runs.iter().filter(|r| !r.finished).count();
+    if unfinished > 0 {
+        eprintln!("note: {unfinished} runs are not finished; figures are from their last committed generation");
+    }
+    print!(
+        "{}",
+        summarise(&results, &experiment.schemes, experiment.brief.payload)
+    );
     Ok(())
 }
 

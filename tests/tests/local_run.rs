@@ -196,3 +196,31 @@ fn export_csv_has_one_row_per_elite_with_every_parameter() {
     assert_eq!(lines.count(), elites);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn analyse_prints_every_section() {
+    let dir = temp_dir("analyse");
+    let db = dir.join("a.db");
+    run_to_end(&db, "2");
+    let out = run(
+        "strider-coordinator",
+        &["analyse", "--db", db.to_str().unwrap()],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    for section in [
+        "Final library, per scheme",
+        "static  2 repeats: best fitness",
+        "Mann-Whitney U tests between schemes",
+        "Mean features of the top 10 % designs (Table 5)",
+        "Mean controller of each repeat's best design",
+        "Design rules from the top designs (Table 6",
+    ] {
+        assert!(text.contains(section), "missing `{section}` in:\n{text}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -2,3 +2,4 @@
 
 pub mod mann_whitney;
 pub mod rules;
+pub mod summary;

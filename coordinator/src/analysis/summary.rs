@@ -1,0 +1,250 @@
+//! The design-assist summary of an experiment (spec section 6) as plain data: final
+//! figures per scheme, Mann-Whitney tests between schemes, the top designs' mean
+//! features (the paper's Table 5), each repeat's best controller, and the design rules
+//! (Table 6). `strider-coordinator analyse` prints it.
+
+use super::mann_whitney::{mann_whitney, MannWhitney};
+use super::rules::{mine_rules, Rules};
+use crate::library::{GenerationStats, Library};
+use std::fmt;
+use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
+use strider_common::genome::ParamVector;
+use strider_common::params::{CONTROLLER_LEN, CONTROLLER_PARAMS};
+use strider_common::{BodyPlan, Features, Scheme};
+
+/// Share of each scheme's designs (pooled over repeats, by fitness) the rules and Table 5
+/// are drawn from.
+pub const TOP_SHARE: f64 = 0.1;
+/// The rule threshold on sqrt(eigenvalue).
+pub const RULE_THRESHOLD: f64 = 0.2;
+
+/// One run's inputs to the summary.
+pub struct RunResult<'a> {
+    /// Its scheme.
+    pub scheme: Scheme,
+    /// Its library at the end.
+    pub library: &'a Library,
+    /// Its last generation's statistics.
+    pub last: GenerationStats,
+}
+
+/// Mean and sample standard deviation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeanSd {
+    /// Mean.
+    pub mean: f64,
+    /// Sample standard deviation (0 for one value).
+    pub sd: f64,
+}
+
+fn mean_sd(v: &[f64]) -> MeanSd {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let sd = if v.len() > 1 {
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    MeanSd { mean, sd }
+}
+
+/// One scheme's part of the summary.
+pub struct SchemeSummary {
+    /// The scheme.
+    pub scheme: Scheme,
+    /// Runs of it.
+    pub repeats: usize,
+    /// Final best fitness over repeats.
+    pub best: MeanSd,
+    /// Final coverage over repeats.
+    pub coverage: MeanSd,
+    /// Designs in the top share, pooled over repeats.
+    pub top_designs: usize,
+    /// Their mean features d1..d6.
+    pub top_features: [f64; FEATURE_COUNT],
+    /// Mean controller of each repeat's best design.
+    pub best_controller: [f64; CONTROLLER_LEN],
+    /// Design rules from the top designs (None with fewer than 2 designs).
+    pub rules: Option<Rules>,
+}
+
+/// A Mann-Whitney comparison of two schemes.
+pub struct Comparison {
+    /// The two schemes.
+    pub schemes: (Scheme, Scheme),
+    /// On final best fitness.
+    pub best: MannWhitney,
+    /// On final coverage.
+    pub coverage: MannWhitney,
+}
+
+/// The whole summary.
+pub struct Summary {
+    /// Per scheme, in the experiment's order.
+    pub schemes: Vec<SchemeSummary>,
+    /// Every pair of schemes.
+    pub comparisons: Vec<Comparison>,
+}
+
+/// Summarises finished runs; `payload` is the brief's (it enters the mass feature).
+pub fn summarise(runs: &[RunResult<'_>], schemes: &[Scheme], payload: f64) -> Summary {
+    let per: Vec<SchemeSummary> = schemes
+        .iter()
+        .filter_map(|&scheme| {
+            let mine: Vec<&RunResult<'_>> = runs.iter().filter(|r| r.scheme == scheme).collect();
+            (!mine.is_empty()).then(|| scheme_summary(scheme, &mine, payload))
+        })
+        .collect();
+    let mut comparisons = Vec::new();
+    for (i, a) in schemes.iter().enumerate() {
+        for b in &schemes[i + 1..] {
+            let take = |s: Scheme, f: fn(&GenerationStats) -> f64| -> Vec<f64> {
+                runs.iter()
+                    .filter(|r| r.scheme == s)
+                    .map(|r| f(&r.last))
+                    .collect()
+            };
+            let (best_a, best_b) = (take(*a, |s| s.max_fitness), take(*b, |s| s.max_fitness));
+            let (cov_a, cov_b) = (take(*a, |s| s.coverage), take(*b, |s| s.coverage));
+            if let (Ok(best), Ok(coverage)) =
+                (mann_whitney(&best_a, &best_b), mann_whitney(&cov_a, &cov_b))
+            {
+                comparisons.push(Comparison {
+                    schemes: (*a, *b),
+                    best,
+                    coverage,
+                });
+            }
+        }
+    }
+    Summary {
+        schemes: per,
+        comparisons,
+    }
+}
+
+fn scheme_summary(scheme: Scheme, runs: &[&RunResult<'_>], payload: f64) -> SchemeSummary {
+    let best = mean_sd(&runs.iter().map(|r| r.last.max_fitness).collect::<Vec<_>>());
+    let coverage = mean_sd(&runs.iter().map(|r| r.last.coverage).collect::<Vec<_>>());
+    // Pool every elite, best first; keep the top share (at least one).
+    let mut pooled: Vec<(f64, [f64; FEATURE_COUNT])> = runs
+        .iter()
+        .flat_map(|r| r.library.elites())
+        .map(|(_, e)| {
+            let plan = BodyPlan::new(&e.genome.morphology, payload);
+            (e.fitness, Features::of(&e.genome.morphology, &plan).0)
+        })
+        .collect();
+    pooled.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let top = ((pooled.len() as f64 * TOP_SHARE).ceil() as usize)
+        .clamp(1, pooled.len().max(1))
+        .min(pooled.len());
+    let designs: Vec<[f64; FEATURE_COUNT]> = pooled[..top].iter().map(|d| d.1).collect();
+    let mut top_features = [0.0; FEATURE_COUNT];
+    for d in &designs {
+        for (acc, v) in top_features.iter_mut().zip(d) {
+            *acc += v / designs.len() as f64;
+        }
+    }
+    let mut best_controller = [0.0; CONTROLLER_LEN];
+    let bests: Vec<_> = runs
+        .iter()
+        .filter_map(|r| {
+            r.library
+                .elites()
+                .map(|(_, e)| e)
+                .max_by(|a, b| a.fitness.total_cmp(&b.fitness))
+        })
+        .collect();
+    for e in &bests {
+        for (acc, v) in best_controller.iter_mut().zip(e.genome.controller.values()) {
+            *acc += v / bests.len() as f64;
+        }
+    }
+    SchemeSummary {
+        scheme,
+        repeats: runs.len(),
+        best,
+        coverage,
+        top_designs: designs.len(),
+        top_features,
+        best_controller,
+        rules: mine_rules(&designs, RULE_THRESHOLD).ok(),
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "Final library, per scheme (mean ± sd over repeats)")?;
+        for s in &self.schemes {
+            writeln!(
+                f,
+                "  {:<7} {} repeats: best fitness {:.4} ± {:.4}, coverage {:.3} % ± {:.3} %",
+                s.scheme,
+                s.repeats,
+                s.best.mean,
+                s.best.sd,
+                100.0 * s.coverage.mean,
+                100.0 * s.coverage.sd
+            )?;
+        }
+        writeln!(f, "\nMann-Whitney U tests between schemes (two-sided)")?;
+        if self.comparisons.is_empty() {
+            writeln!(f, "  (one scheme only)")?;
+        }
+        for c in &self.comparisons {
+            writeln!(
+                f,
+                "  {} vs {}: best fitness {}",
+                c.schemes.0, c.schemes.1, c.best
+            )?;
+            writeln!(
+                f,
+                "  {} vs {}: coverage {}",
+                c.schemes.0, c.schemes.1, c.coverage
+            )?;
+        }
+        writeln!(
+            f,
+            "\nMean features of the top {:.0} % designs (Table 5)",
+            100.0 * TOP_SHARE
+        )?;
+        for s in &self.schemes {
+            write!(f, "  {:<7} ({} designs):", s.scheme, s.top_designs)?;
+            for (name, v) in FEATURE_NAMES.iter().zip(&s.top_features) {
+                write!(f, " {name} {v:.4}")?;
+            }
+            writeln!(f)?;
+        }
+        writeln!(f, "\nMean controller of each repeat's best design")?;
+        for s in &self.schemes {
+            write!(f, "  {:<7}:", s.scheme)?;
+            for (p, v) in CONTROLLER_PARAMS.iter().zip(&s.best_controller) {
+                write!(f, " {} {v:.3}", p.name)?;
+            }
+            writeln!(f)?;
+        }
+        writeln!(
+            f,
+            "\nDesign rules from the top designs (Table 6; sqrt(eigenvalue) <= {RULE_THRESHOLD})"
+        )?;
+        for s in &self.schemes {
+            match &s.rules {
+                None => writeln!(f, "  {}: too few designs", s.scheme)?,
+                Some(r) => {
+                    writeln!(
+                        f,
+                        "  {}: {} kept, {} dropped by the threshold",
+                        s.scheme,
+                        r.kept.len(),
+                        r.dropped.len()
+                    )?;
+                    for rule in &r.kept {
+                        writeln!(f, "    {rule}")?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
