@@ -31,6 +31,7 @@ pub async fn run_experiment(
     let mut runs = db.runs().await?;
     let started = Instant::now();
     let mut evaluated_total = 0usize;
+    let mut evaluating = std::time::Duration::ZERO;
     loop {
         let active: Vec<usize> = (0..runs.len()).filter(|&i| !runs[i].finished).collect();
         if active.is_empty() {
@@ -45,9 +46,11 @@ pub async fn run_experiment(
             .iter()
             .flat_map(|(_, jobs)| jobs.iter().copied())
             .collect();
+        let evaluation = Instant::now();
         let outcomes = tokio::task::spawn_blocking(move || evaluate_batch(&ctx, &all, threads))
             .await
             .expect("the evaluator thread does not panic");
+        evaluating += evaluation.elapsed();
         let mut offset = 0;
         for (i, jobs) in plans {
             let outs = &outcomes[offset..offset + jobs.len()];
@@ -56,6 +59,11 @@ pub async fn run_experiment(
         }
         progress(&runs, experiment, evaluated_total, started);
     }
+    let wall = started.elapsed().as_secs_f64();
+    eprintln!(
+        "{evaluated_total} candidates in {wall:.1} s; evaluating {:.1} % of the time, the rest breeding and committing",
+        100.0 * evaluating.as_secs_f64() / wall.max(1e-9)
+    );
     Ok(())
 }
 
