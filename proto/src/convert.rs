@@ -1,0 +1,289 @@
+//! Conversions between wire messages and the model's types. Everything coming off the wire
+//! is validated here: vector sizes, finiteness and ranges through the parameter table, so
+//! a malformed message is refused with the field's name before it reaches the library.
+
+use crate::v1;
+use strider_common::brief::{Constraint, Violation};
+use strider_common::features::{CellIndex, Features, FEATURE_COUNT};
+use strider_common::genome::{GenomeError, ParamVector};
+use strider_common::{Controller, Genome, InvalidReason, Morphology, Outcome, Scheme, TrialStats};
+
+/// A message that does not describe a valid model value; names the field.
+#[derive(Debug, thiserror::Error)]
+#[error("{field}: {problem}")]
+pub struct WireError {
+    /// Dotted path of the offending field.
+    pub field: String,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+fn wire_err(field: &str, problem: impl ToString) -> WireError {
+    WireError {
+        field: field.into(),
+        problem: problem.to_string(),
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<f64, WireError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(wire_err(field, format!("{v} is not a finite number")))
+    }
+}
+
+fn vector<V: ParamVector>(field: &str, values: &[f64]) -> Result<V, WireError> {
+    V::from_values(values).map_err(|e| match e {
+        GenomeError::WrongLength { expected, found } => {
+            wire_err(field, format!("expected {expected} values, found {found}"))
+        }
+        other => wire_err(field, other),
+    })
+}
+
+impl From<&Genome> for v1::Genome {
+    fn from(g: &Genome) -> Self {
+        v1::Genome {
+            morphology: g.morphology.values().to_vec(),
+            controller: g.controller.values().to_vec(),
+        }
+    }
+}
+
+impl TryFrom<&v1::Genome> for Genome {
+    type Error = WireError;
+    fn try_from(g: &v1::Genome) -> Result<Self, WireError> {
+        Ok(Genome {
+            morphology: vector::<Morphology>("genome.morphology", &g.morphology)?,
+            controller: vector::<Controller>("genome.controller", &g.controller)?,
+        })
+    }
+}
+
+/// The wire form of a scheme.
+pub fn scheme_to_wire(s: Scheme) -> v1::Scheme {
+    match s {
+        Scheme::Static => v1::Scheme::Static,
+        Scheme::Genome => v1::Scheme::Genome,
+        Scheme::Es => v1::Scheme::Es,
+    }
+}
+
+/// A scheme from its wire value.
+pub fn scheme_from_wire(value: i32) -> Result<Scheme, WireError> {
+    match v1::Scheme::try_from(value) {
+        Ok(v1::Scheme::Static) => Ok(Scheme::Static),
+        Ok(v1::Scheme::Genome) => Ok(Scheme::Genome),
+        Ok(v1::Scheme::Es) => Ok(Scheme::Es),
+        _ => Err(wire_err("scheme", format!("{value} is not a scheme"))),
+    }
+}
+
+fn stats_to_wire(s: &TrialStats) -> v1::TrialStats {
+    v1::TrialStats {
+        distance: s.distance,
+        energy: s.energy,
+        speed: s.speed,
+        mass: s.mass,
+        cost_of_transport: s.cost_of_transport,
+        duration: s.duration,
+    }
+}
+
+fn stats_from_wire(field: &str, s: &v1::TrialStats) -> Result<TrialStats, WireError> {
+    let f = |name: &str, v: f64| finite(&format!("{field}.{name}"), v);
+    Ok(TrialStats {
+        distance: f("distance", s.distance)?,
+        energy: f("energy", s.energy)?,
+        speed: f("speed", s.speed)?,
+        mass: f("mass", s.mass)?,
+        cost_of_transport: f("cost_of_transport", s.cost_of_transport)?,
+        duration: f("duration", s.duration)?,
+    })
+}
+
+fn constraint_to_wire(c: Constraint) -> v1::violation::Constraint {
+    match c {
+        Constraint::Mass => v1::violation::Constraint::Mass,
+        Constraint::Height => v1::violation::Constraint::Height,
+        Constraint::Speed => v1::violation::Constraint::Speed,
+    }
+}
+
+impl From<&Outcome> for v1::Outcome {
+    fn from(o: &Outcome) -> Self {
+        use v1::invalid::Reason;
+        let kind = match o {
+            Outcome::Valid {
+                fitness,
+                stats,
+                features,
+                cell,
+                ..
+            } => v1::outcome::Kind::Valid(v1::Valid {
+                fitness: *fitness,
+                stats: Some(stats_to_wire(stats)),
+                features: features.0.to_vec(),
+                cell: cell.0,
+            }),
+            Outcome::Rejected {
+                violations, stats, ..
+            } => v1::outcome::Kind::Rejected(v1::Rejected {
+                violations: violations
+                    .iter()
+                    .map(|v| v1::Violation {
+                        constraint: constraint_to_wire(v.constraint).into(),
+                        value: v.value,
+                        limit: v.limit,
+                    })
+                    .collect(),
+                stats: stats.as_ref().map(stats_to_wire),
+            }),
+            Outcome::Invalid {
+                reason, at_time, ..
+            } => {
+                let mut w = v1::Invalid {
+                    at_time: *at_time,
+                    ..Default::default()
+                };
+                match reason {
+                    InvalidReason::SelfContact { first, second } => {
+                        w.reason = Reason::SelfContact.into();
+                        w.first_part = first.clone();
+                        w.second_part = second.clone();
+                    }
+                    InvalidReason::NonFinite { what } => {
+                        w.reason = Reason::NonFinite.into();
+                        w.quantity = what.clone();
+                    }
+                    InvalidReason::BlowUp { speed } => {
+                        w.reason = Reason::BlowUp.into();
+                        w.value = *speed;
+                    }
+                    InvalidReason::NoForwardProgress { distance } => {
+                        w.reason = Reason::NoForwardProgress.into();
+                        w.value = *distance;
+                    }
+                }
+                v1::outcome::Kind::Invalid(w)
+            }
+        };
+        v1::Outcome {
+            kind: Some(kind),
+            controller: o.controller().values().to_vec(),
+        }
+    }
+}
+
+impl TryFrom<&v1::Outcome> for Outcome {
+    type Error = WireError;
+    fn try_from(o: &v1::Outcome) -> Result<Self, WireError> {
+        use v1::invalid::Reason;
+        let controller = vector::<Controller>("outcome.controller", &o.controller)?;
+        match o
+            .kind
+            .as_ref()
+            .ok_or_else(|| wire_err("outcome.kind", "missing"))?
+        {
+            v1::outcome::Kind::Valid(v) => {
+                let fitness = finite("outcome.valid.fitness", v.fitness)?;
+                if fitness <= 0.0 {
+                    return Err(wire_err(
+                        "outcome.valid.fitness",
+                        format!("{fitness} is not positive"),
+                    ));
+                }
+                let stats = v
+                    .stats
+                    .as_ref()
+                    .ok_or_else(|| wire_err("outcome.valid.stats", "missing"))?;
+                if v.features.len() != FEATURE_COUNT {
+                    return Err(wire_err(
+                        "outcome.valid.features",
+                        format!(
+                            "expected {FEATURE_COUNT} values, found {}",
+                            v.features.len()
+                        ),
+                    ));
+                }
+                let mut features = [0.0; FEATURE_COUNT];
+                for (i, (slot, &x)) in features.iter_mut().zip(&v.features).enumerate() {
+                    *slot = finite(&format!("outcome.valid.features[{i}]"), x)?;
+                }
+                Ok(Outcome::Valid {
+                    fitness,
+                    stats: stats_from_wire("outcome.valid.stats", stats)?,
+                    features: Features(features),
+                    cell: CellIndex(v.cell),
+                    controller,
+                })
+            }
+            v1::outcome::Kind::Rejected(r) => {
+                let mut violations = Vec::with_capacity(r.violations.len());
+                for (i, v) in r.violations.iter().enumerate() {
+                    let field = format!("outcome.rejected.violations[{i}]");
+                    let constraint = match v1::violation::Constraint::try_from(v.constraint) {
+                        Ok(v1::violation::Constraint::Mass) => Constraint::Mass,
+                        Ok(v1::violation::Constraint::Height) => Constraint::Height,
+                        Ok(v1::violation::Constraint::Speed) => Constraint::Speed,
+                        _ => {
+                            return Err(wire_err(
+                                &format!("{field}.constraint"),
+                                format!("{} is not a constraint", v.constraint),
+                            ))
+                        }
+                    };
+                    violations.push(Violation {
+                        constraint,
+                        value: finite(&format!("{field}.value"), v.value)?,
+                        limit: finite(&format!("{field}.limit"), v.limit)?,
+                    });
+                }
+                if violations.is_empty() {
+                    return Err(wire_err(
+                        "outcome.rejected.violations",
+                        "empty: a rejection names its constraint",
+                    ));
+                }
+                Ok(Outcome::Rejected {
+                    violations,
+                    stats: r
+                        .stats
+                        .as_ref()
+                        .map(|s| stats_from_wire("outcome.rejected.stats", s))
+                        .transpose()?,
+                    controller,
+                })
+            }
+            v1::outcome::Kind::Invalid(i) => {
+                let reason = match Reason::try_from(i.reason) {
+                    Ok(Reason::SelfContact) => InvalidReason::SelfContact {
+                        first: i.first_part.clone(),
+                        second: i.second_part.clone(),
+                    },
+                    Ok(Reason::NonFinite) => InvalidReason::NonFinite {
+                        what: i.quantity.clone(),
+                    },
+                    Ok(Reason::BlowUp) => InvalidReason::BlowUp {
+                        speed: finite("outcome.invalid.value", i.value)?,
+                    },
+                    Ok(Reason::NoForwardProgress) => InvalidReason::NoForwardProgress {
+                        distance: finite("outcome.invalid.value", i.value)?,
+                    },
+                    _ => {
+                        return Err(wire_err(
+                            "outcome.invalid.reason",
+                            format!("{} is not a reason", i.reason),
+                        ))
+                    }
+                };
+                Ok(Outcome::Invalid {
+                    reason,
+                    at_time: finite("outcome.invalid.at_time", i.at_time)?,
+                    controller,
+                })
+            }
+        }
+    }
+}
