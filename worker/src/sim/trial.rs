@@ -126,16 +126,17 @@ pub fn run_trial_with<O: Observer>(
         // Applied torques and the work they did.
         let mb = rw.robot();
         let mut fastest: f64 = 0.0;
-        for v in mb.generalized_velocity().iter() {
+        for &v in mb.generalized_velocity().iter() {
+            // Checked one by one: f64::max would silently skip a NaN.
+            if !v.is_finite() {
+                return stopped(
+                    InvalidReason::NonFinite {
+                        what: "velocity".into(),
+                    },
+                    time,
+                );
+            }
             fastest = fastest.max(f64::from(v.abs()));
-        }
-        if !fastest.is_finite() {
-            return stopped(
-                InvalidReason::NonFinite {
-                    what: "velocity".into(),
-                },
-                time,
-            );
         }
         if fastest > BLOW_UP_SPEED {
             return stopped(InvalidReason::BlowUp { speed: fastest }, time);
