@@ -61,6 +61,19 @@ pub struct GenerationStats {
     pub invalid: usize,
 }
 
+impl GenerationStats {
+    /// Counts one result's placement.
+    pub fn record(&mut self, p: Placement) {
+        match p {
+            Placement::New => self.new += 1,
+            Placement::Improved => self.improved += 1,
+            Placement::Discarded => self.discarded += 1,
+            Placement::Rejected => self.rejected += 1,
+            Placement::Invalid => self.invalid += 1,
+        }
+    }
+}
+
 /// One run's library.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Library {
@@ -158,13 +171,7 @@ impl Library {
                 "results must come in increasing candidate order"
             );
             last = Some(candidate);
-            match self.apply(candidate, genome, outcome) {
-                Placement::New => stats.new += 1,
-                Placement::Improved => stats.improved += 1,
-                Placement::Discarded => stats.discarded += 1,
-                Placement::Rejected => stats.rejected += 1,
-                Placement::Invalid => stats.invalid += 1,
-            }
+            stats.record(self.apply(candidate, genome, outcome));
         }
         self.summary(stats, cell_count)
     }

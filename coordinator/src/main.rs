@@ -151,7 +151,8 @@ async fn run_locally(
     Ok(())
 }
 
-async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Result<()> {
+/// Opens an existing database and its experiment, for reading.
+async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment)> {
     if !path.exists() {
         bail!("no database at {}", path.display());
     }
@@ -160,6 +161,11 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
         .experiment()
         .await?
         .context("the database holds no experiment")?;
+    Ok((db, experiment))
+}
+
+async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Result<()> {
+    let (db, experiment) = open_existing(path).await?;
     let runs: Vec<_> = db
         .runs()
         .await?
@@ -234,14 +240,7 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
 }
 
 async fn analyse(path: &Path) -> anyhow::Result<()> {
-    if !path.exists() {
-        bail!("no database at {}", path.display());
-    }
-    let db = Db::open(path, false).await?;
-    let (experiment, _) = db
-        .experiment()
-        .await?
-        .context("the database holds no experiment")?;
+    let (db, experiment) = open_existing(path).await?;
     let runs = db.runs().await?;
     let mut results = Vec::new();
     for r in &runs {

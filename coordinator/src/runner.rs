@@ -111,7 +111,7 @@ async fn apply_step(
         let number = job.seed.candidate;
         let placement = run.library.apply(number, &job.genome, outcome);
         rows.push((number, &job.genome, outcome, placement));
-        count(&mut stats, placement);
+        stats.record(placement);
         if initial && outcome.fitness().is_some() {
             run.initial_passed += 1;
             if run.initial_passed == target {
@@ -144,16 +144,6 @@ async fn apply_step(
     db.commit(run, &candidates, completed.map(|g| (g, stats)))
         .await?;
     Ok(candidates.len())
-}
-
-fn count(stats: &mut GenerationStats, p: Placement) {
-    match p {
-        Placement::New => stats.new += 1,
-        Placement::Improved => stats.improved += 1,
-        Placement::Discarded => stats.discarded += 1,
-        Placement::Rejected => stats.rejected += 1,
-        Placement::Invalid => stats.invalid += 1,
-    }
 }
 
 /// One progress line per round, on stderr.
