@@ -46,6 +46,18 @@ impl Default for MutationRates {
 }
 
 impl MutationRates {
+    /// Every group at the same probability.
+    pub fn uniform(rate: f64) -> Self {
+        Self {
+            body: rate,
+            leg_count: rate,
+            leg_offset: rate,
+            leg: rate,
+            link: rate,
+            motor: rate,
+        }
+    }
+
     /// The probability that one parameter of `group` mutates.
     pub fn rate(&self, group: MutationGroup) -> f64 {
         match group {
@@ -230,7 +242,7 @@ mod tests {
             let mut rng = CandidateSeed::new(run, cand).rng(Purpose::Reproduction);
             let mut g = Genome::random(Scheme::Genome, &mut rng);
             // Heavy rates push values against the clamps often.
-            let rates = MutationRates { body: 1.0, leg_count: 1.0, leg_offset: 1.0, leg: 1.0, link: 1.0, motor: 1.0 };
+            let rates = MutationRates::uniform(1.0);
             for _ in 0..rounds {
                 g = g.offspring(Scheme::Genome, &rates, &mut rng);
                 assert_valid(&g);
@@ -286,14 +298,7 @@ mod tests {
     fn zero_rates_leave_the_morphology_alone() {
         let mut rng = CandidateSeed::new(1, 1).rng(Purpose::Reproduction);
         let parent = Genome::random(Scheme::Static, &mut rng);
-        let rates = MutationRates {
-            body: 0.0,
-            leg_count: 0.0,
-            leg_offset: 0.0,
-            leg: 0.0,
-            link: 0.0,
-            motor: 0.0,
-        };
+        let rates = MutationRates::uniform(0.0);
         let child = parent.offspring(Scheme::Static, &rates, &mut rng);
         assert_eq!(parent, child);
         // GENOME still mutates every controller parameter.

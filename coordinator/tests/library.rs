@@ -171,14 +171,7 @@ fn offspring_are_reproducible_and_draw_parents_uniformly() {
         offspring(&lib, Scheme::Static, &rates, seed)
     );
     // With every rate at 0 a STATIC child is its parent, which identifies the parent.
-    let still = MutationRates {
-        body: 0.0,
-        leg_count: 0.0,
-        leg_offset: 0.0,
-        leg: 0.0,
-        link: 0.0,
-        motor: 0.0,
-    };
+    let still = MutationRates::uniform(0.0);
     let mut counts = [0usize; 4];
     for n in 0..4000 {
         let child = offspring(
