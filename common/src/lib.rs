@@ -25,3 +25,19 @@ pub use genome::{Controller, Genome, Morphology};
 pub use outcome::{InvalidReason, Outcome, TrialStats};
 pub use pose::StartPose;
 pub use variation::{MutationRates, Scheme};
+
+/// The Strider build: trials are bit-identical only within one build (see
+/// ../shared/notes/rapier.md), so the database records it and the coordinator refuses
+/// workers of another.
+pub fn build_id() -> String {
+    format!(
+        "strider {} ({}, {})",
+        env!("CARGO_PKG_VERSION"),
+        std::env::consts::ARCH,
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "release"
+        }
+    )
+}

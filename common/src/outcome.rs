@@ -49,6 +49,14 @@ pub enum InvalidReason {
         /// Its distance, m.
         distance: f64,
     },
+    /// No result came back: the workers evaluating it died or hung `attempts` times, so the
+    /// coordinator gave up on it (its generation goes on without it).
+    EvaluationFailed {
+        /// Leases lost.
+        attempts: u32,
+        /// How the last one was lost.
+        last: String,
+    },
 }
 
 impl std::fmt::Display for InvalidReason {
@@ -61,6 +69,9 @@ impl std::fmt::Display for InvalidReason {
             InvalidReason::BlowUp { speed } => write!(f, "simulation blew up (speed {speed:.1})"),
             InvalidReason::NoForwardProgress { distance } => {
                 write!(f, "no forward progress (distance {distance:.3} m)")
+            }
+            InvalidReason::EvaluationFailed { attempts, last } => {
+                write!(f, "evaluation failed {attempts} times (last: {last})")
             }
         }
     }

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::str::FromStr;
 use strider_common::experiment::RunSpec;
 use strider_common::rng::{CandidateNumber, RunSeed};
-use strider_common::{CellIndex, Experiment, Genome, Outcome, Scheme};
+use strider_common::{CellIndex, Experiment, Genome, InvalidReason, Outcome, Scheme};
 
 /// A database problem, with what was being done.
 #[derive(Debug, thiserror::Error)]
@@ -27,20 +27,7 @@ pub enum DbError {
     Corrupt(String),
 }
 
-/// The Strider build, recorded with the experiment: trials are bit-identical only within
-/// one build (see ../shared/notes/rapier.md).
-pub fn build_id() -> String {
-    format!(
-        "strider {} ({}, {})",
-        env!("CARGO_PKG_VERSION"),
-        std::env::consts::ARCH,
-        if cfg!(debug_assertions) {
-            "debug"
-        } else {
-            "release"
-        }
-    )
-}
+pub use strider_common::build_id;
 
 /// One run's persistent state.
 #[derive(Clone, Debug)]
@@ -61,18 +48,177 @@ pub struct RunRecord {
     pub library: Library,
 }
 
-/// One evaluated candidate, ready to store.
-pub struct CandidateRow<'a> {
+/// One evaluated candidate applied to its run's library, ready to store.
+#[derive(Clone, Debug)]
+pub struct AppliedCandidate {
     /// Its number.
     pub number: CandidateNumber,
     /// Its generation (0 = initial population).
     pub generation: u32,
     /// Its genome.
-    pub genome: &'a Genome,
+    pub genome: Genome,
     /// Its outcome.
-    pub outcome: &'a Outcome,
+    pub outcome: Outcome,
     /// What it did to the library.
     pub placement: Placement,
+}
+
+/// Where a run stands (the `runs` row).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunPosition {
+    /// Last completed generation.
+    pub generation: u32,
+    /// Valid candidates in the initial population so far.
+    pub initial_passed: u32,
+    /// First candidate number not yet applied.
+    pub next_candidate: u64,
+    /// Whether the run has done all its generations.
+    pub finished: bool,
+}
+
+impl RunRecord {
+    /// Its position.
+    pub fn position(&self) -> RunPosition {
+        RunPosition {
+            generation: self.generation,
+            initial_passed: self.initial_passed,
+            next_candidate: self.next_candidate,
+            finished: self.finished,
+        }
+    }
+}
+
+/// A step of a run applied to its library: stored in the same transaction as everything
+/// written before it, so the database never holds half a generation.
+#[derive(Clone, Debug)]
+pub struct StepCommit {
+    /// Run id.
+    pub run: i64,
+    /// The run's position after the step.
+    pub position: RunPosition,
+    /// The candidates applied, in order.
+    pub candidates: Vec<AppliedCandidate>,
+    /// The cells the step changed, with their new elites.
+    pub elites: Vec<(CellIndex, Elite)>,
+    /// The generation the step completed, with its statistics (for the initial population
+    /// the placement counts are filled in from all its stored candidates).
+    pub completed: Option<(u32, GenerationStats)>,
+}
+
+/// One change to the database. The writer task commits them in order, in groups.
+// Writes live for milliseconds on their way to the writer; boxing genomes would cost an
+// allocation each for nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum Write {
+    /// A candidate joined its run's current step (with its outcome when the coordinator
+    /// settled it without a trial).
+    Created {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Its generation.
+        generation: u32,
+        /// Its genome.
+        genome: Genome,
+        /// Its outcome, when already known.
+        outcome: Option<Outcome>,
+    },
+    /// A candidate was leased to a worker.
+    Leased {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Worker session.
+        worker: u64,
+    },
+    /// A lease ended without a result; the candidate waits again.
+    Returned {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Leases lost so far.
+        attempts: u32,
+    },
+    /// A candidate's result came in (or it failed for good).
+    Resolved {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Its outcome.
+        outcome: Outcome,
+        /// Worker session that sent it (none when it failed).
+        worker: Option<u64>,
+        /// Wall time the evaluation took.
+        seconds: f64,
+    },
+    /// A step was applied to the library.
+    Step(Box<StepCommit>),
+    /// A worker connected.
+    WorkerJoined {
+        /// Session id.
+        id: u64,
+        /// Its name.
+        name: String,
+        /// Its build.
+        build: String,
+        /// Candidates it holds at once.
+        slots: u32,
+    },
+    /// A worker disconnected.
+    WorkerLeft {
+        /// Session id.
+        id: u64,
+        /// Results it sent.
+        results: u64,
+        /// Why it left.
+        reason: String,
+    },
+}
+
+/// A candidate of a run's current step as stored: its result if one came in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredPending {
+    /// Run id.
+    pub run: i64,
+    /// Candidate number.
+    pub number: CandidateNumber,
+    /// Leases lost so far.
+    pub attempts: u32,
+    /// Its outcome, once done (or failed).
+    pub outcome: Option<Outcome>,
+}
+
+/// Which elites a listing wants.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EliteFilter {
+    /// Only this run.
+    pub run: Option<i64>,
+    /// Only this cell.
+    pub cell: Option<i64>,
+    /// Only at least this fit.
+    pub min_fitness: Option<f64>,
+}
+
+/// An elite as stored, with the outcome that placed it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredElite {
+    /// Run id.
+    pub run: i64,
+    /// Its cell.
+    pub cell: CellIndex,
+    /// The candidate.
+    pub candidate: CandidateNumber,
+    /// Its fitness.
+    pub fitness: f64,
+    /// Its genome, with the controller that earned the fitness.
+    pub genome: Genome,
+    /// Its outcome.
+    pub outcome: Outcome,
 }
 
 /// The database.
@@ -103,9 +249,10 @@ impl Db {
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Full)
             .foreign_keys(true);
-        // One connection: one writer, and reads see its commits.
+        // One writer (the writer task, or `run`'s loop) and a few readers (client calls):
+        // WAL lets them read while it writes.
         let pool = SqlitePoolOptions::new()
-            .max_connections(1)
+            .max_connections(4)
             .connect_with(options)
             .await
             .map_err(|e| DbError::Open {
@@ -191,99 +338,84 @@ impl Db {
         Ok(out)
     }
 
-    /// Commits one step of a run in one transaction: its evaluated candidates, the elites
-    /// they changed, the run's new position, and, when a generation completes, its
-    /// statistics (for the initial population, counted from all its stored candidates).
-    pub async fn commit(
-        &self,
-        run: &RunRecord,
-        candidates: &[CandidateRow<'_>],
-        completed_generation: Option<(u32, GenerationStats)>,
-    ) -> Result<(), DbError> {
+    /// Applies a group of writes in one transaction (the writer task's group commit).
+    pub async fn write(&self, writes: &[Write]) -> Result<(), DbError> {
         let mut tx = self.pool.begin().await?;
-        for c in candidates {
-            let (fitness, cell) = match c.outcome {
-                Outcome::Valid { fitness, cell, .. } => (Some(*fitness), Some(i64::from(cell.0))),
-                _ => (None, None),
-            };
-            sqlx::query("INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
-                .bind(run.id)
-                .bind(c.number.0 as i64)
-                .bind(i64::from(c.generation))
-                .bind(serde_json::to_string(c.genome).expect("genomes serialise"))
-                .bind(serde_json::to_string(c.outcome).expect("outcomes serialise"))
-                .bind(c.outcome.kind())
-                .bind(fitness)
-                .bind(cell)
-                .bind(placement_name(c.placement))
-                .execute(&mut *tx)
-                .await?;
-            if matches!(c.placement, Placement::New | Placement::Improved) {
-                let cell = match c.outcome {
-                    Outcome::Valid { cell, .. } => *cell,
-                    _ => unreachable!("only valid outcomes enter the library"),
-                };
-                let elite = run
-                    .library
-                    .get(cell)
-                    .expect("a placed candidate's cell is occupied");
-                sqlx::query("INSERT INTO elites (run_id, cell, candidate, fitness, genome) VALUES (?, ?, ?, ?, ?) ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness, genome = excluded.genome")
-                    .bind(run.id)
-                    .bind(i64::from(cell.0))
-                    .bind(elite.candidate.0 as i64)
-                    .bind(elite.fitness)
-                    .bind(serde_json::to_string(&elite.genome).expect("genomes serialise"))
-                    .execute(&mut *tx)
-                    .await?;
-            }
+        for w in writes {
+            write_one(&mut tx, w).await?;
         }
-        if let Some((generation, mut stats)) = completed_generation {
-            if generation == 0 {
-                for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
-                    .bind(run.id)
-                    .fetch_all(&mut *tx)
-                    .await?
-                {
-                    let n = r.get::<i64, _>(1) as usize;
-                    match r.get::<String, _>(0).as_str() {
-                        "new" => stats.new = n,
-                        "improved" => stats.improved = n,
-                        "discarded" => stats.discarded = n,
-                        "rejected" => stats.rejected = n,
-                        _ => stats.invalid = n,
-                    }
-                }
-            }
-            let evaluations =
-                stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
-            sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
-                .bind(run.id)
-                .bind(i64::from(generation))
-                .bind(evaluations as i64)
-                .bind(stats.coverage)
-                .bind(stats.elites as i64)
-                .bind(stats.max_fitness)
-                .bind(stats.mean_fitness)
-                .bind(stats.min_fitness)
-                .bind(stats.qd_score)
-                .bind(stats.new as i64)
-                .bind(stats.improved as i64)
-                .bind(stats.discarded as i64)
-                .bind(stats.rejected as i64)
-                .bind(stats.invalid as i64)
-                .execute(&mut *tx)
-                .await?;
-        }
-        sqlx::query("UPDATE runs SET generation = ?, initial_passed = ?, next_candidate = ?, finished = ? WHERE id = ?")
-            .bind(i64::from(run.generation))
-            .bind(i64::from(run.initial_passed))
-            .bind(run.next_candidate as i64)
-            .bind(i64::from(run.finished))
-            .bind(run.id)
-            .execute(&mut *tx)
-            .await?;
         tx.commit().await?;
         Ok(())
+    }
+
+    /// Every stored candidate of the runs' current steps.
+    pub async fn pending(&self) -> Result<Vec<StoredPending>, DbError> {
+        let rows = sqlx::query(
+            "SELECT run_id, number, attempts, outcome FROM pending ORDER BY run_id, number",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let outcome: Option<String> = r.get(3);
+                Ok(StoredPending {
+                    run: r.get(0),
+                    number: CandidateNumber(r.get::<i64, _>(1) as u64),
+                    attempts: r.get::<i64, _>(2) as u32,
+                    outcome: outcome
+                        .map(|o| serde_json::from_str(&o))
+                        .transpose()
+                        .map_err(|e| DbError::Corrupt(format!("pending outcome: {e}")))?,
+                })
+            })
+            .collect()
+    }
+
+    /// The id the next worker session gets (ids are never reused, across restarts too).
+    pub async fn next_worker_id(&self) -> Result<u64, DbError> {
+        let max: Option<i64> = sqlx::query("SELECT MAX(id) FROM workers")
+            .fetch_one(&self.pool)
+            .await?
+            .get(0);
+        Ok(max.map_or(1, |m| m as u64 + 1))
+    }
+
+    /// Elites, best first, filtered, one page: `(run, cell, candidate, fitness, outcome)`.
+    pub async fn list_elites(
+        &self,
+        filter: &EliteFilter,
+        offset: u64,
+        limit: u32,
+    ) -> Result<Vec<StoredElite>, DbError> {
+        let rows = sqlx::query(
+            "SELECT e.run_id, e.cell, e.candidate, e.fitness, e.genome, c.outcome FROM elites e \
+             JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
+             WHERE (?1 IS NULL OR e.run_id = ?1) AND (?2 IS NULL OR e.cell = ?2) AND (?3 IS NULL OR e.fitness >= ?3) \
+             ORDER BY e.fitness DESC, e.run_id, e.cell LIMIT ?4 OFFSET ?5",
+        )
+        .bind(filter.run)
+        .bind(filter.cell)
+        .bind(filter.min_fitness)
+        .bind(i64::from(limit))
+        .bind(offset as i64)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let genome: String = r.get(4);
+                let outcome: String = r.get(5);
+                Ok(StoredElite {
+                    run: r.get(0),
+                    cell: CellIndex(r.get::<i64, _>(1) as u32),
+                    candidate: CandidateNumber(r.get::<i64, _>(2) as u64),
+                    fitness: r.get(3),
+                    genome: serde_json::from_str(&genome)
+                        .map_err(|e| DbError::Corrupt(format!("elite genome: {e}")))?,
+                    outcome: serde_json::from_str(&outcome)
+                        .map_err(|e| DbError::Corrupt(format!("elite outcome: {e}")))?,
+                })
+            })
+            .collect()
     }
 
     /// Per-generation statistics of a run, in order.
@@ -327,6 +459,200 @@ impl Db {
             .await?
             .get(0))
     }
+}
+
+async fn write_one(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>, w: &Write) -> Result<(), DbError> {
+    match w {
+        Write::Created {
+            run,
+            number,
+            generation,
+            genome,
+            outcome,
+        } => {
+            sqlx::query("INSERT INTO pending (run_id, number, generation, genome, status, outcome) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (run_id, number) DO NOTHING")
+                .bind(run)
+                .bind(number.0 as i64)
+                .bind(i64::from(*generation))
+                .bind(serde_json::to_string(genome).expect("genomes serialise"))
+                .bind(if outcome.is_some() { "done" } else { "waiting" })
+                .bind(outcome.as_ref().map(|o| serde_json::to_string(o).expect("outcomes serialise")))
+                .execute(&mut **tx)
+                .await?;
+        }
+        Write::Leased {
+            run,
+            number,
+            worker,
+        } => {
+            sqlx::query("UPDATE pending SET status = 'leased', worker = ? WHERE run_id = ? AND number = ? AND status IN ('waiting', 'leased')")
+                .bind(*worker as i64)
+                .bind(run)
+                .bind(number.0 as i64)
+                .execute(&mut **tx)
+                .await?;
+        }
+        Write::Returned {
+            run,
+            number,
+            attempts,
+        } => {
+            sqlx::query("UPDATE pending SET status = 'waiting', worker = NULL, attempts = ? WHERE run_id = ? AND number = ? AND status = 'leased'")
+                .bind(i64::from(*attempts))
+                .bind(run)
+                .bind(number.0 as i64)
+                .execute(&mut **tx)
+                .await?;
+        }
+        Write::Resolved {
+            run,
+            number,
+            outcome,
+            worker,
+            seconds,
+        } => {
+            let failed = matches!(
+                outcome,
+                Outcome::Invalid {
+                    reason: InvalidReason::EvaluationFailed { .. },
+                    ..
+                }
+            );
+            sqlx::query("UPDATE pending SET status = ?, worker = ?, outcome = ?, seconds = ? WHERE run_id = ? AND number = ?")
+                .bind(if failed { "failed" } else { "done" })
+                .bind(worker.map(|w| w as i64))
+                .bind(serde_json::to_string(outcome).expect("outcomes serialise"))
+                .bind(seconds)
+                .bind(run)
+                .bind(number.0 as i64)
+                .execute(&mut **tx)
+                .await?;
+            if let Some(w) = worker {
+                sqlx::query("UPDATE workers SET results = results + 1 WHERE id = ?")
+                    .bind(*w as i64)
+                    .execute(&mut **tx)
+                    .await?;
+            }
+        }
+        Write::Step(step) => write_step(tx, step).await?,
+        Write::WorkerJoined {
+            id,
+            name,
+            build,
+            slots,
+        } => {
+            sqlx::query("INSERT INTO workers (id, name, build, slots, connected_at) VALUES (?, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))")
+                .bind(*id as i64)
+                .bind(name)
+                .bind(build)
+                .bind(i64::from(*slots))
+                .execute(&mut **tx)
+                .await?;
+        }
+        Write::WorkerLeft {
+            id,
+            results,
+            reason,
+        } => {
+            sqlx::query("UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), results = ?, left_because = ? WHERE id = ?")
+                .bind(*results as i64)
+                .bind(reason)
+                .bind(*id as i64)
+                .execute(&mut **tx)
+                .await?;
+        }
+    }
+    Ok(())
+}
+
+async fn write_step(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    step: &StepCommit,
+) -> Result<(), DbError> {
+    let run = step.run;
+    for c in &step.candidates {
+        let (fitness, cell) = match &c.outcome {
+            Outcome::Valid { fitness, cell, .. } => (Some(*fitness), Some(i64::from(cell.0))),
+            _ => (None, None),
+        };
+        sqlx::query("INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            .bind(run)
+            .bind(c.number.0 as i64)
+            .bind(i64::from(c.generation))
+            .bind(serde_json::to_string(&c.genome).expect("genomes serialise"))
+            .bind(serde_json::to_string(&c.outcome).expect("outcomes serialise"))
+            .bind(c.outcome.kind())
+            .bind(fitness)
+            .bind(cell)
+            .bind(placement_name(c.placement))
+            .execute(&mut **tx)
+            .await?;
+    }
+    for (cell, elite) in &step.elites {
+        sqlx::query("INSERT INTO elites (run_id, cell, candidate, fitness, genome) VALUES (?, ?, ?, ?, ?) ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness, genome = excluded.genome")
+            .bind(run)
+            .bind(i64::from(cell.0))
+            .bind(elite.candidate.0 as i64)
+            .bind(elite.fitness)
+            .bind(serde_json::to_string(&elite.genome).expect("genomes serialise"))
+            .execute(&mut **tx)
+            .await?;
+    }
+    if let Some((generation, mut stats)) = step.completed {
+        if generation == 0 {
+            for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
+                .bind(run)
+                .fetch_all(&mut **tx)
+                .await?
+            {
+                let n = r.get::<i64, _>(1) as usize;
+                match r.get::<String, _>(0).as_str() {
+                    "new" => stats.new = n,
+                    "improved" => stats.improved = n,
+                    "discarded" => stats.discarded = n,
+                    "rejected" => stats.rejected = n,
+                    _ => stats.invalid = n,
+                }
+            }
+        }
+        let evaluations =
+            stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
+        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            .bind(run)
+            .bind(i64::from(generation))
+            .bind(evaluations as i64)
+            .bind(stats.coverage)
+            .bind(stats.elites as i64)
+            .bind(stats.max_fitness)
+            .bind(stats.mean_fitness)
+            .bind(stats.min_fitness)
+            .bind(stats.qd_score)
+            .bind(stats.new as i64)
+            .bind(stats.improved as i64)
+            .bind(stats.discarded as i64)
+            .bind(stats.rejected as i64)
+            .bind(stats.invalid as i64)
+            .execute(&mut **tx)
+            .await?;
+    }
+    let p = step.position;
+    // Applied candidates leave the step; so do the initial population's spare draws once
+    // it is complete.
+    sqlx::query("DELETE FROM pending WHERE run_id = ? AND (number < ? OR (generation = 0 AND ?))")
+        .bind(run)
+        .bind(p.next_candidate as i64)
+        .bind(p.generation > 0 || matches!(step.completed, Some((0, _))))
+        .execute(&mut **tx)
+        .await?;
+    sqlx::query("UPDATE runs SET generation = ?, initial_passed = ?, next_candidate = ?, finished = ? WHERE id = ?")
+        .bind(i64::from(p.generation))
+        .bind(i64::from(p.initial_passed))
+        .bind(p.next_candidate as i64)
+        .bind(i64::from(p.finished))
+        .bind(run)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
 }
 
 /// The experiment as canonical TOML (what the database stores and compares).

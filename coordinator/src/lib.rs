@@ -1,8 +1,9 @@
-//! Strider's coordinator: the MAP-Elites library and how candidates are bred. The database,
-//! the gRPC service and the analysis come with the service and design-assist issues.
+//! Strider's coordinator: the MAP-Elites library, how candidates are bred, the scheduler
+//! that leases them to workers, the database, the gRPC service and the analysis.
 
 pub mod analysis;
 pub mod db;
 pub mod evolution;
 pub mod library;
-pub mod runner;
+pub mod scheduler;
+pub mod service;

@@ -1,17 +1,22 @@
 //! `strider-coordinator`: owns the MAP-Elites library. `run` runs an experiment on this
-//! machine (resuming from its database), `export` writes the library out, `check`
-//! validates an experiment file. The gRPC service comes with the service issue.
+//! machine, `serve` serves it to workers over gRPC (both resume from their database),
+//! `status` asks a running coordinator for progress, `export` and `analyse` read the
+//! library, `check` validates an experiment file.
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
+use std::net::SocketAddr;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
 use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
 use strider_common::Experiment;
 use strider_coordinator::analysis::summary::{summarise, RunResult};
 use strider_coordinator::db::{build_id, first_difference, Db};
-use strider_coordinator::runner::run_experiment;
+use strider_coordinator::service::auth::Secret;
+use strider_coordinator::service::local::run_local;
+use strider_coordinator::service::server::{serve, ServeOptions};
 use strider_worker::batch::default_threads;
 
 #[derive(Parser)]
@@ -43,6 +48,52 @@ enum Command {
         /// Evaluation threads (all cores by default).
         #[arg(long)]
         workers: Option<NonZeroUsize>,
+        /// Seconds between progress lines.
+        #[arg(long, default_value_t = 10.0)]
+        progress_every: f64,
+    },
+    /// Serve an experiment to workers over gRPC; resumes when the database exists. Stops
+    /// when every run is finished (or on SIGTERM / Ctrl-C), everything committed.
+    Serve {
+        /// Database file (created with --experiment when missing).
+        #[arg(long)]
+        db: PathBuf,
+        /// Experiment file: needed to start; when resuming it must match the database.
+        #[arg(long)]
+        experiment: Option<PathBuf>,
+        /// Address to listen on.
+        #[arg(long, default_value = "0.0.0.0:50051")]
+        listen: SocketAddr,
+        /// File holding the shared secret (else the STRIDER_SECRET environment variable).
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// Write the URL workers should connect to here once listening (atomically).
+        #[arg(long)]
+        address_file: Option<PathBuf>,
+        /// Seconds a lease lasts without a heartbeat.
+        #[arg(long, default_value_t = 60.0)]
+        lease_seconds: f64,
+        /// Leases a candidate may lose (worker died or hung) before it is marked failed.
+        #[arg(long, default_value_t = 3)]
+        max_attempts: u32,
+        /// Seconds between progress lines.
+        #[arg(long, default_value_t = 10.0)]
+        progress_every: f64,
+        /// Keep serving clients after every run is finished (until SIGTERM).
+        #[arg(long)]
+        keep_serving: bool,
+    },
+    /// Print the progress of every run of a running coordinator.
+    Status {
+        /// The coordinator, e.g. http://host:50051.
+        #[arg(long)]
+        connect: String,
+        /// File holding the shared secret (else the STRIDER_SECRET environment variable).
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
     },
     /// Write every elite (cell, fitness, genome) and every generation's statistics.
     Export {
@@ -81,11 +132,47 @@ fn main() -> ExitCode {
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    // Simulations run on the blocking pool; these threads only move messages.
+    let threads = default_threads().get().clamp(1, 4);
     tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
+        .worker_threads(threads)
         .enable_all()
         .build()
         .context("starting the async runtime")
+}
+
+fn init_logs() {
+    // RUST_LOG (or STRIDER_LOG) sets the level; info by default.
+    let filter = tracing_subscriber::EnvFilter::try_from_env("STRIDER_LOG")
+        .or_else(|_| tracing_subscriber::EnvFilter::try_from_default_env())
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .try_init();
+}
+
+fn seconds(name: &str, s: f64) -> anyhow::Result<Duration> {
+    if !(s.is_finite() && s > 0.0) {
+        bail!("--{name}: {s} is not a positive number of seconds");
+    }
+    Ok(Duration::from_secs_f64(s))
+}
+
+async fn stop_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+        tokio::select! {
+            _ = term.recv() => {}
+            _ = tokio::signal::ctrl_c() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = tokio::signal::ctrl_c().await;
+    tracing::info!("asked to stop: committing and shutting down");
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -94,22 +181,74 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             experiment,
             db,
             workers,
-        } => runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers)),
+            progress_every,
+        } => {
+            init_logs();
+            let every = seconds("progress-every", progress_every)?;
+            runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers, every))
+        }
+        Command::Serve {
+            db,
+            experiment,
+            listen,
+            token_file,
+            address_file,
+            lease_seconds,
+            max_attempts,
+            progress_every,
+            keep_serving,
+        } => {
+            init_logs();
+            let secret = Secret::load(token_file.as_deref())?;
+            if max_attempts == 0 {
+                bail!("--max-attempts: must be at least 1");
+            }
+            let opts = ServeOptions {
+                lease: seconds("lease-seconds", lease_seconds)?,
+                max_attempts,
+                progress_every: Some(seconds("progress-every", progress_every)?),
+                keep_serving,
+                address_file,
+            };
+            runtime()?.block_on(async {
+                let (db, experiment) = open_or_create(experiment.as_deref(), &db, false).await?;
+                let listener = tokio::net::TcpListener::bind(listen)
+                    .await
+                    .with_context(|| format!("listening on {listen}"))?;
+                serve(db, experiment, listener, secret, opts, stop_signal()).await
+            })
+        }
+        Command::Status {
+            connect,
+            token_file,
+            json,
+        } => {
+            let secret = Secret::load(token_file.as_deref())?;
+            runtime()?.block_on(status(&connect, &secret, json))
+        }
         Command::Export { db, run, format } => runtime()?.block_on(export(&db, run, format)),
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
         Command::Check { experiment } => check(&experiment),
     }
 }
 
-async fn run_locally(
+/// Opens the database, creating it with the given experiment (or, for `run`, the built-in
+/// quick one) when new; refuses an experiment that differs from the stored one.
+async fn open_or_create(
     file: Option<&Path>,
     path: &Path,
-    workers: Option<NonZeroUsize>,
-) -> anyhow::Result<()> {
+    quick_by_default: bool,
+) -> anyhow::Result<(Db, Experiment)> {
     let given = match file {
         Some(f) => Some(Experiment::load(f)?),
         None => None,
     };
+    if !path.exists() && given.is_none() && !quick_by_default {
+        bail!(
+            "no database at {}: pass --experiment FILE to start one",
+            path.display()
+        );
+    }
     let db = Db::open(path, true).await?;
     let experiment = match db.experiment().await? {
         Some((stored, build)) => {
@@ -132,22 +271,112 @@ async fn run_locally(
             stored
         }
         None => {
-            let e = given.unwrap_or_else(|| {
-                Experiment::from_toml(include_str!("../../experiments/quick.toml"))
-                    .expect("the built-in quick experiment is valid")
-            });
+            let e = match given {
+                Some(e) => e,
+                None if quick_by_default => {
+                    Experiment::from_toml(include_str!("../../experiments/quick.toml"))
+                        .expect("the built-in quick experiment is valid")
+                }
+                None => bail!(
+                    "{} holds no experiment: pass --experiment FILE to start one",
+                    path.display()
+                ),
+            };
             db.create_experiment(&e).await?;
             eprintln!("starting experiment `{}` in {}", e.name, path.display());
             e
         }
     };
+    Ok((db, experiment))
+}
+
+async fn run_locally(
+    file: Option<&Path>,
+    path: &Path,
+    workers: Option<NonZeroUsize>,
+    progress_every: Duration,
+) -> anyhow::Result<()> {
+    let (db, experiment) = open_or_create(file, path, true).await?;
     let threads = workers.unwrap_or_else(default_threads);
-    run_experiment(&db, &experiment, threads).await?;
+    run_local(db, experiment.clone(), threads, progress_every).await?;
     eprintln!(
         "experiment `{}` finished: `strider-coordinator export --db {}` writes the library",
         experiment.name,
         path.display()
     );
+    Ok(())
+}
+
+async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
+    use strider_proto::v1::client_service_client::ClientServiceClient;
+    let channel = tonic::transport::Endpoint::from_shared(url.to_string())
+        .with_context(|| format!("coordinator URL {url}"))?
+        .connect_timeout(Duration::from_secs(5))
+        .connect()
+        .await
+        .with_context(|| format!("connecting to {url}"))?;
+    let header: tonic::metadata::MetadataValue<_> = secret
+        .header_value()
+        .parse()
+        .context("the secret cannot travel as gRPC metadata")?;
+    let mut client =
+        ClientServiceClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
+            r.metadata_mut().insert("authorization", header.clone());
+            Ok(r)
+        });
+    let p = client
+        .get_progress(strider_proto::v1::ProgressRequest {
+            protocol_version: strider_proto::PROTOCOL_VERSION,
+        })
+        .await
+        .map_err(|s| anyhow::anyhow!("{url}: {} ({:?})", s.message(), s.code()))?
+        .into_inner();
+    if json {
+        let runs: Vec<_> = p.runs.iter().map(|r| serde_json::json!({
+            "run": r.run, "scheme": strider_proto::convert::scheme_from_wire(r.scheme).map(|s| s.name()).unwrap_or("?"),
+            "repeat": r.repeat, "seed": r.seed, "generation": r.generation, "generations": r.generations,
+            "initial_passed": r.initial_passed, "trials_done": r.trials_done, "trials_pending": r.trials_pending,
+            "coverage": r.coverage, "best_fitness": r.best_fitness, "mean_fitness": r.mean_fitness,
+            "qd_score": r.qd_score, "finished": r.finished,
+        })).collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "experiment": p.experiment, "workers_connected": p.workers_connected,
+                "trials_per_second": p.trials_per_second, "runs": runs,
+            }))?
+        );
+        return Ok(());
+    }
+    println!(
+        "experiment `{}`: {} workers connected, {:.1} trials/s over the last minute",
+        p.experiment, p.workers_connected, p.trials_per_second
+    );
+    println!("run  scheme   repeat  generation        initial  trials    pending  coverage  best      mean      QD score");
+    for r in &p.runs {
+        let scheme = strider_proto::convert::scheme_from_wire(r.scheme)
+            .map(|s| s.name())
+            .unwrap_or("?");
+        let generation = if r.finished {
+            format!("{}/{} done", r.generation, r.generations)
+        } else {
+            format!("{}/{}", r.generation, r.generations)
+        };
+        println!(
+            "{:<4} {:<8} {:<7} {:<17} {:<8} {:<9} {:<8} {:<9} {:<9.4} {:<9.4} {:.2}",
+            r.run,
+            scheme,
+            r.repeat,
+            generation,
+            r.initial_passed,
+            r.trials_done,
+            r.trials_pending,
+            format!("{:.2} %", 100.0 * r.coverage),
+            r.best_fitness,
+            r.mean_fitness,
+            r.qd_score
+        );
+    }
     Ok(())
 }
 

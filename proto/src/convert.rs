@@ -165,6 +165,11 @@ impl From<&Outcome> for v1::Outcome {
                         w.reason = Reason::NoForwardProgress.into();
                         w.value = *distance;
                     }
+                    InvalidReason::EvaluationFailed { attempts, last } => {
+                        w.reason = Reason::EvaluationFailed.into();
+                        w.value = f64::from(*attempts);
+                        w.quantity = last.clone();
+                    }
                 }
                 v1::outcome::Kind::Invalid(w)
             }
@@ -271,6 +276,12 @@ impl TryFrom<&v1::Outcome> for Outcome {
                     Ok(Reason::NoForwardProgress) => InvalidReason::NoForwardProgress {
                         distance: finite("outcome.invalid.value", i.value)?,
                     },
+                    Ok(Reason::EvaluationFailed) => {
+                        return Err(wire_err(
+                            "outcome.invalid.reason",
+                            "EVALUATION_FAILED is the coordinator's to set, not a worker's",
+                        ))
+                    }
                     _ => {
                         return Err(wire_err(
                             "outcome.invalid.reason",

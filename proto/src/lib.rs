@@ -8,6 +8,10 @@ pub mod v1 {
     tonic::include_proto!("strider.v1");
 }
 
+/// The encoded descriptor set of `strider.proto`, for gRPC reflection.
+pub const FILE_DESCRIPTOR_SET: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/strider_descriptor.bin"));
+
 /// Protocol version a worker or client must present; a mismatch is refused.
 pub const PROTOCOL_VERSION: u32 = 1;
 

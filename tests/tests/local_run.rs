@@ -117,10 +117,12 @@ fn a_coordinator_killed_anywhere_resumes_to_the_same_library() {
     let expected = export(&reference);
 
     let db = dir.join("killed.db");
-    // Kill it right after it reports each of these, while it evaluates the next step.
+    // Kill it right after it reports each of these (the progress line is printed every
+    // 50 ms), while it evaluates what follows.
     for mark in ["initial", "generation 2/8", "generation 5/8"] {
         let mut child = Command::new(binary("strider-coordinator"))
             .args(["run", TINY, "--db", db.to_str().unwrap(), "--workers", "2"])
+            .args(["--progress-every", "0.05"])
             .current_dir(workspace_root())
             .stderr(Stdio::piped())
             .stdout(Stdio::null())

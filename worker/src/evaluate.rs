@@ -58,6 +58,28 @@ pub fn evaluate(
     }
 }
 
+/// The outcome of `evaluate` when it is decided without a trial (the design fails the
+/// brief's mass or height limit), computed in microseconds; `None` when a trial is needed.
+/// The coordinator settles such candidates itself instead of sending them to a worker.
+pub fn precheck(ctx: &EvalContext, genome: &Genome, scheme: Scheme) -> Option<Outcome> {
+    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    let controller = match scheme {
+        Scheme::Static | Scheme::Es => Controller::static_default(),
+        Scheme::Genome => genome.controller,
+    };
+    // Under ES only the mass is final: another controller may change the start height.
+    if scheme == Scheme::Es && plan.mass_without_payload() <= ctx.brief.max_mass {
+        return None;
+    }
+    let pose = StartPose::new(&plan, &controller);
+    let violations = ctx.brief.check_model(&plan, &pose);
+    (!violations.is_empty()).then_some(Outcome::Rejected {
+        violations,
+        stats: None,
+        controller,
+    })
+}
+
 /// Evaluates one morphology with one controller: static checks, trial, speed check.
 pub fn evaluate_controller(
     ctx: &EvalContext,

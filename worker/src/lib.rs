@@ -1,8 +1,10 @@
 //! Strider's worker: simulates candidates in rapier3d and evaluates them under a scheme.
 
 pub mod batch;
+pub mod client;
 pub mod es;
 pub mod evaluate;
 pub mod sim;
 pub mod survey;
+pub mod synthetic;
 pub mod trace;

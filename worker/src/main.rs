@@ -1,6 +1,6 @@
-//! `strider-worker`: evaluates robot designs. `eval` simulates one genome; `inspect` and
-//! `params` describe genomes without simulating. The coordinator connection comes with the
-//! service issue.
+//! `strider-worker`: evaluates robot designs. `--connect URL` works for a coordinator on
+//! every core; `eval` simulates one genome; `inspect`, `params` and `random` describe
+//! genomes without simulating; `survey` measures how often random designs pass the brief.
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -11,6 +11,7 @@ use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
 use strider_worker::batch::default_threads;
+use strider_worker::client::{work, ConnectOptions, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
 use strider_worker::survey::Survey;
 use strider_worker::trace::CsvTrace;
@@ -21,9 +22,37 @@ use strider_worker::trace::CsvTrace;
     version,
     about = "Strider worker: evaluates robot designs"
 )]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    connect: ConnectArgs,
+}
+
+/// Working for a coordinator.
+#[derive(clap::Args)]
+struct ConnectArgs {
+    /// Work for the coordinator at this URL (e.g. http://host:50051) until its experiment
+    /// is finished; retries with backoff while it is unreachable.
+    #[arg(long)]
+    connect: Option<String>,
+    /// File holding the shared secret (else the STRIDER_SECRET environment variable).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// Trials at once (all cores by default).
+    #[arg(long)]
+    threads: Option<NonZeroUsize>,
+    /// Name in the coordinator's logs (host name and process id by default).
+    #[arg(long)]
+    name: Option<String>,
+    /// On SIGTERM, seconds running trials may take to finish before they are given back.
+    #[arg(long, default_value_t = 10.0)]
+    drain_seconds: f64,
+    /// BENCHMARK ONLY: answer every candidate instantly with a made-up result, to measure
+    /// the coordinator. Never use for real runs.
+    #[arg(long)]
+    benchmark_instant_results: bool,
 }
 
 #[derive(Subcommand)]
@@ -113,8 +142,85 @@ fn context(experiment: Option<&Path>) -> anyhow::Result<EvalContext> {
     })
 }
 
+/// The secret from a file, else the environment; none if neither is given.
+fn load_secret(file: Option<&Path>) -> anyhow::Result<Option<String>> {
+    let text = match file {
+        Some(f) => {
+            std::fs::read_to_string(f).with_context(|| format!("secret file {}", f.display()))?
+        }
+        None => match std::env::var("STRIDER_SECRET") {
+            Ok(s) => s,
+            Err(_) => return Ok(None),
+        },
+    };
+    let secret = text.lines().next().unwrap_or("").trim().to_string();
+    anyhow::ensure!(!secret.is_empty(), "the secret is empty");
+    Ok(Some(format!("Bearer {secret}")))
+}
+
+fn connect(args: ConnectArgs, url: String) -> anyhow::Result<()> {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("STRIDER_LOG")
+        .or_else(|_| tracing_subscriber::EnvFilter::try_from_default_env())
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .try_init();
+    anyhow::ensure!(
+        args.drain_seconds.is_finite() && args.drain_seconds >= 0.0,
+        "--drain-seconds: {} is not a number of seconds",
+        args.drain_seconds
+    );
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_else(|_| "localhost".into());
+    let opts = ConnectOptions {
+        url,
+        authorization: load_secret(args.token_file.as_deref())?,
+        threads: args.threads.unwrap_or_else(default_threads),
+        name: args
+            .name
+            .unwrap_or_else(|| format!("{host} pid {}", std::process::id())),
+        build: strider_common::build_id(),
+        evaluator: if args.benchmark_instant_results {
+            Evaluator::InstantSyntheticResults
+        } else {
+            Evaluator::Simulation
+        },
+        drain: std::time::Duration::from_secs_f64(args.drain_seconds),
+        max_backoff: std::time::Duration::from_secs(5),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(async {
+        let (stop, stopped) = tokio::sync::watch::channel(false);
+        tokio::spawn(async move {
+            use tokio::signal::unix::{signal, SignalKind};
+            let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+            tokio::select! {
+                _ = term.recv() => {}
+                _ = tokio::signal::ctrl_c() => {}
+            }
+            tracing::info!("asked to stop");
+            let _ = stop.send(true);
+        });
+        work(opts, stopped).await
+    })?;
+    Ok(())
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
+    let Some(command) = cli.command else {
+        return match cli.connect.connect.clone() {
+            Some(url) => connect(cli.connect, url),
+            None => anyhow::bail!("nothing to do: pass --connect URL, or a command (see --help)"),
+        };
+    };
+    match command {
         Command::Eval {
             genome,
             scheme,

@@ -88,6 +88,7 @@ impl Survey {
                         self.unstable += 1
                     }
                     InvalidReason::NoForwardProgress { .. } => self.no_progress += 1,
+                    InvalidReason::EvaluationFailed { .. } => {}
                 }
             }
         }

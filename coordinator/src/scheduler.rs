@@ -1,0 +1,720 @@
+//! The service's core, as plain data: which candidates each run needs evaluated now, who
+//! holds them, what came back, and when a step (a stretch of the initial population, or a
+//! whole generation) is complete and applied to the run's library in candidate order.
+//!
+//! No clock, no network, no database: callers pass the time in, and take the changes to
+//! store ([`Write`]s) out with [`Scheduler::take_writes`]. So every rule about leases,
+//! duplicates, failures and reproducibility is tested here directly.
+//!
+//! Reproducibility: a candidate is a pure function of (run seed, candidate number, the
+//! library it was bred from), results are applied in candidate order, and the initial
+//! population ends at the candidate that brings its passes to the target. So neither the
+//! number of workers, nor their speed, nor restarts change a run.
+
+use crate::db::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
+use crate::evolution::{initial_candidate, offspring};
+use crate::library::{GenerationStats, Placement};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::time::{Duration, Instant};
+use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
+use strider_common::{Experiment, Genome, InvalidReason, Outcome, Scheme};
+use strider_worker::evaluate::{precheck, EvalContext};
+
+/// The most initial-population candidates a run draws ahead of the first one not yet
+/// applied. Bounds memory and the draws wasted once the population is complete; does not
+/// affect results.
+pub const INITIAL_WINDOW: u64 = 4096;
+
+/// Leases a candidate may lose (worker died, hung, or disconnected) before it is marked
+/// failed.
+pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
+
+/// A worker connection (ids are never reused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct WorkerId(pub u64);
+
+/// A candidate of a run: run index, generation and candidate number. The generation is
+/// part of the identity because a draw of the initial population that turned out not to
+/// be needed shares its number with a candidate of generation 1: a late result for the
+/// draw must never be taken for the offspring.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CandidateKey {
+    /// Run index (= run id), from 0.
+    pub run: u32,
+    /// Generation (0 = initial population).
+    pub generation: u32,
+    /// Candidate number within the run.
+    pub number: CandidateNumber,
+}
+
+impl std::fmt::Display for CandidateKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "run {} generation {} candidate {}",
+            self.run, self.generation, self.number.0
+        )
+    }
+}
+
+/// A candidate handed to a worker.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Assignment {
+    /// Which candidate.
+    pub key: CandidateKey,
+    /// Its genome.
+    pub genome: Genome,
+    /// The run's scheme.
+    pub scheme: Scheme,
+    /// The run's seed.
+    pub run_seed: RunSeed,
+}
+
+/// Why a result was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Refusal {
+    /// The run does not exist.
+    #[error("the experiment has no run {0}")]
+    NoSuchRun(u32),
+    /// The run has no such candidate (never drawn).
+    #[error("{0} does not exist")]
+    Unknown(CandidateKey),
+}
+
+/// What became of an accepted result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Accepted {
+    /// It was the candidate's first result: stored.
+    Stored,
+    /// The candidate already had its result (or was applied or dropped): ignored.
+    Duplicate,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum State {
+    Waiting,
+    Leased { worker: WorkerId, expires: Instant },
+    Resolved(Outcome),
+}
+
+#[derive(Clone, Debug)]
+struct Pending {
+    generation: u32,
+    genome: Genome,
+    attempts: u32,
+    state: State,
+}
+
+struct RunState {
+    record: RunRecord,
+    /// The current step's candidates not yet applied, by number.
+    step: BTreeMap<u64, Pending>,
+    /// Those waiting for a worker, lowest number first.
+    waiting: BTreeSet<u64>,
+    /// The next initial-population number to draw.
+    frontier: u64,
+}
+
+/// Progress of one run, now.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunProgress {
+    /// Run index.
+    pub run: u32,
+    /// Scheme.
+    pub scheme: Scheme,
+    /// Repeat.
+    pub repeat: u32,
+    /// Seed.
+    pub seed: RunSeed,
+    /// Last completed generation.
+    pub generation: u32,
+    /// Valid candidates of the initial population.
+    pub initial_passed: u32,
+    /// Candidates evaluated (applied or with a result in hand).
+    pub trials_done: u64,
+    /// Candidates of the current step still waiting or leased.
+    pub trials_pending: u64,
+    /// Library statistics.
+    pub library: GenerationStats,
+    /// Whether the run is finished.
+    pub finished: bool,
+}
+
+/// Every run of an experiment being served.
+pub struct Scheduler {
+    experiment: Experiment,
+    ctx: EvalContext,
+    runs: Vec<RunState>,
+    /// Results (and lost leases) read back from the database, used when the candidate is
+    /// drawn again after a restart.
+    stored: HashMap<(i64, u64), StoredPending>,
+    lease: Duration,
+    max_attempts: u32,
+    cursor: usize,
+    writes: Vec<Write>,
+    steps_applied: u64,
+}
+
+impl Scheduler {
+    /// Serves `runs` (as stored) with the results in `stored`.
+    pub fn new(
+        experiment: Experiment,
+        runs: Vec<RunRecord>,
+        stored: Vec<StoredPending>,
+        lease: Duration,
+        max_attempts: u32,
+    ) -> Self {
+        let ctx = EvalContext::of(&experiment);
+        let mut s = Self {
+            experiment,
+            ctx,
+            runs: runs
+                .into_iter()
+                .map(|record| RunState {
+                    frontier: record.next_candidate,
+                    record,
+                    step: BTreeMap::new(),
+                    waiting: BTreeSet::new(),
+                })
+                .collect(),
+            stored: stored
+                .into_iter()
+                .map(|p| ((p.run, p.number.0), p))
+                .collect(),
+            lease,
+            max_attempts,
+            cursor: 0,
+            writes: Vec::new(),
+            steps_applied: 0,
+        };
+        for i in 0..s.runs.len() {
+            if !s.runs[i].record.finished && !s.initial_phase(i) {
+                s.open_generation(i);
+            }
+            s.advance(i);
+        }
+        s
+    }
+
+    /// The experiment.
+    pub fn experiment(&self) -> &Experiment {
+        &self.experiment
+    }
+
+    /// How long a lease lasts without a heartbeat.
+    pub fn lease_duration(&self) -> Duration {
+        self.lease
+    }
+
+    /// Whether every run is finished.
+    pub fn finished(&self) -> bool {
+        self.runs.iter().all(|r| r.record.finished)
+    }
+
+    /// Whether a lease request could get a candidate now.
+    pub fn available(&self) -> bool {
+        let window = |r: &RunState| r.frontier - r.record.next_candidate < INITIAL_WINDOW;
+        self.runs.iter().any(|r| {
+            !r.record.finished
+                && (!r.waiting.is_empty()
+                    || (r.record.initial_passed < self.experiment.run.initial_population
+                        && window(r)))
+        })
+    }
+
+    /// Steps applied since this scheduler started (watchers wait for it to change).
+    pub fn steps_applied(&self) -> u64 {
+        self.steps_applied
+    }
+
+    /// The changes to store since the last call, in order.
+    pub fn take_writes(&mut self) -> Vec<Write> {
+        std::mem::take(&mut self.writes)
+    }
+
+    /// Leases up to `max` candidates to `worker`, taking runs in turn so that every run
+    /// advances.
+    pub fn lease(&mut self, worker: WorkerId, now: Instant, max: usize) -> Vec<Assignment> {
+        let mut out = Vec::new();
+        let n = self.runs.len();
+        let mut idle = 0;
+        while out.len() < max && idle < n {
+            let i = self.cursor % n;
+            self.cursor = self.cursor.wrapping_add(1);
+            match self.take_one(i, worker, now) {
+                Some(a) => {
+                    out.push(a);
+                    idle = 0;
+                }
+                None => idle += 1,
+            }
+        }
+        out
+    }
+
+    fn take_one(&mut self, i: usize, worker: WorkerId, now: Instant) -> Option<Assignment> {
+        if self.runs[i].record.finished {
+            return None;
+        }
+        if self.runs[i].waiting.is_empty() && self.initial_phase(i) {
+            self.draw_initial(i);
+            self.advance(i);
+        }
+        let expires = now + self.lease;
+        let r = &mut self.runs[i];
+        let number = r.waiting.pop_first()?;
+        let p = r
+            .step
+            .get_mut(&number)
+            .expect("waiting candidates are in the step");
+        p.state = State::Leased { worker, expires };
+        let key = CandidateKey {
+            run: i as u32,
+            generation: p.generation,
+            number: CandidateNumber(number),
+        };
+        self.writes.push(Write::Leased {
+            run: r.record.id,
+            number: key.number,
+            worker: worker.0,
+        });
+        Some(Assignment {
+            key,
+            genome: p.genome,
+            scheme: r.record.spec.scheme,
+            run_seed: r.record.spec.seed,
+        })
+    }
+
+    /// Takes a result. The caller has checked that this worker was leased the candidate
+    /// and that the outcome is well formed.
+    pub fn accept(
+        &mut self,
+        worker: WorkerId,
+        key: CandidateKey,
+        outcome: Outcome,
+        seconds: f64,
+    ) -> Result<Accepted, Refusal> {
+        let i = key.run as usize;
+        let r = self.runs.get_mut(i).ok_or(Refusal::NoSuchRun(key.run))?;
+        let number = key.number.0;
+        match r.step.get_mut(&number) {
+            Some(p) if p.generation == key.generation => {
+                if matches!(p.state, State::Resolved(_)) {
+                    return Ok(Accepted::Duplicate);
+                }
+                r.waiting.remove(&number);
+                p.state = State::Resolved(outcome.clone());
+                self.writes.push(Write::Resolved {
+                    run: r.record.id,
+                    number: key.number,
+                    outcome,
+                    worker: Some(worker.0),
+                    seconds,
+                });
+                self.advance(i);
+                Ok(Accepted::Stored)
+            }
+            // A dropped initial draw whose number a later generation reuses.
+            Some(_) => Ok(Accepted::Duplicate),
+            None if number < r.record.next_candidate || number < r.frontier => {
+                Ok(Accepted::Duplicate)
+            }
+            None => Err(Refusal::Unknown(key)),
+        }
+    }
+
+    /// Keeps `worker`'s leases on `keys` alive.
+    pub fn heartbeat(&mut self, worker: WorkerId, keys: &[CandidateKey], now: Instant) {
+        let until = now + self.lease;
+        for key in keys {
+            if let Some(p) = self.pending_mut(*key) {
+                if let State::Leased { worker: w, expires } = &mut p.state {
+                    if *w == worker {
+                        *expires = until;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `worker` gives candidates back unevaluated (it is shutting down): they wait again,
+    /// with no attempt counted.
+    pub fn release(&mut self, worker: WorkerId, keys: &[CandidateKey]) {
+        for key in keys {
+            self.end_lease(*key, |w| w == worker, None);
+        }
+    }
+
+    /// `worker` is gone: its leases count as lost.
+    pub fn disconnect(&mut self, worker: WorkerId, why: &str) {
+        for key in self.leases_where(|w, _| w == worker) {
+            self.end_lease(key, |w| w == worker, Some(why));
+        }
+    }
+
+    /// Leases past their time count as lost; returns how many.
+    pub fn expire(&mut self, now: Instant) -> usize {
+        let expired = self.leases_where(|_, expires| expires <= now);
+        for key in &expired {
+            self.end_lease(*key, |_| true, Some("lease expired without a result"));
+        }
+        expired.len()
+    }
+
+    fn leases_where(&self, f: impl Fn(WorkerId, Instant) -> bool) -> Vec<CandidateKey> {
+        let mut out = Vec::new();
+        for (i, r) in self.runs.iter().enumerate() {
+            for (n, p) in &r.step {
+                if let State::Leased { worker, expires } = p.state {
+                    if f(worker, expires) {
+                        out.push(CandidateKey {
+                            run: i as u32,
+                            generation: p.generation,
+                            number: CandidateNumber(*n),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Ends a lease held by a worker `holder` accepts: back to waiting, or, when `lost`
+    /// says how, one attempt more, and failed after too many.
+    fn end_lease(
+        &mut self,
+        key: CandidateKey,
+        holder: impl Fn(WorkerId) -> bool,
+        lost: Option<&str>,
+    ) {
+        let max_attempts = self.max_attempts;
+        let i = key.run as usize;
+        let Some(r) = self.runs.get_mut(i) else {
+            return;
+        };
+        let Some(p) = r.step.get_mut(&key.number.0) else {
+            return;
+        };
+        if p.generation != key.generation {
+            return;
+        }
+        let State::Leased { worker, .. } = p.state else {
+            return;
+        };
+        if !holder(worker) {
+            return;
+        }
+        let run = r.record.id;
+        if let Some(why) = lost {
+            p.attempts += 1;
+            if p.attempts >= max_attempts {
+                let outcome = Outcome::Invalid {
+                    reason: InvalidReason::EvaluationFailed {
+                        attempts: p.attempts,
+                        last: format!("worker {}: {why}", worker.0),
+                    },
+                    at_time: 0.0,
+                    controller: p.genome.controller,
+                };
+                p.state = State::Resolved(outcome.clone());
+                self.writes.push(Write::Resolved {
+                    run,
+                    number: key.number,
+                    outcome,
+                    worker: None,
+                    seconds: 0.0,
+                });
+                self.advance(i);
+                return;
+            }
+        }
+        p.state = State::Waiting;
+        r.waiting.insert(key.number.0);
+        self.writes.push(Write::Returned {
+            run,
+            number: key.number,
+            attempts: p.attempts,
+        });
+    }
+
+    fn pending_mut(&mut self, key: CandidateKey) -> Option<&mut Pending> {
+        self.runs
+            .get_mut(key.run as usize)?
+            .step
+            .get_mut(&key.number.0)
+            .filter(|p| p.generation == key.generation)
+    }
+
+    fn initial_phase(&self, i: usize) -> bool {
+        self.runs[i].record.initial_passed < self.experiment.run.initial_population
+    }
+
+    fn seed(&self, i: usize, number: u64) -> CandidateSeed {
+        CandidateSeed::new(self.runs[i].record.spec.seed.0, number)
+    }
+
+    /// Draws initial-population candidates until one needs a worker or the window is full.
+    fn draw_initial(&mut self, i: usize) {
+        let scheme = self.runs[i].record.spec.scheme;
+        while self.runs[i].waiting.is_empty()
+            && self.runs[i].frontier - self.runs[i].record.next_candidate < INITIAL_WINDOW
+        {
+            let number = self.runs[i].frontier;
+            self.runs[i].frontier += 1;
+            let genome = initial_candidate(scheme, self.seed(i, number));
+            self.add(i, number, 0, genome);
+        }
+    }
+
+    /// Breeds the run's next generation from its library.
+    fn open_generation(&mut self, i: usize) {
+        let r = &self.runs[i].record;
+        let (scheme, first, generation) = (r.spec.scheme, r.next_candidate, r.generation + 1);
+        let count = u64::from(self.experiment.run.offspring_per_generation);
+        for number in first..first + count {
+            let genome = offspring(
+                &self.runs[i].record.library,
+                scheme,
+                &self.experiment.mutation,
+                self.seed(i, number),
+            )
+            .expect("the library holds the initial population");
+            self.add(i, number, generation, genome);
+        }
+        self.runs[i].frontier = first + count;
+    }
+
+    /// Adds a candidate to the step: its stored result if the database has one, else
+    /// settled at once when it fails the brief's static checks, else waiting.
+    fn add(&mut self, i: usize, number: u64, generation: u32, genome: Genome) {
+        let run = self.runs[i].record.id;
+        let scheme = self.runs[i].record.spec.scheme;
+        let (attempts, state) = match self.stored.remove(&(run, number)) {
+            Some(stored) => (
+                stored.attempts,
+                stored.outcome.map_or(State::Waiting, State::Resolved),
+            ),
+            None => {
+                let outcome = precheck(&self.ctx, &genome, scheme);
+                self.writes.push(Write::Created {
+                    run,
+                    number: CandidateNumber(number),
+                    generation,
+                    genome,
+                    outcome: outcome.clone(),
+                });
+                (0, outcome.map_or(State::Waiting, State::Resolved))
+            }
+        };
+        let r = &mut self.runs[i];
+        if state == State::Waiting {
+            r.waiting.insert(number);
+        }
+        r.step.insert(
+            number,
+            Pending {
+                generation,
+                genome,
+                attempts,
+                state,
+            },
+        );
+    }
+
+    /// Applies whatever the run's results allow, opening next generations as they complete.
+    fn advance(&mut self, i: usize) {
+        loop {
+            if self.runs[i].record.finished {
+                return;
+            }
+            let applied = if self.initial_phase(i) {
+                self.apply_initial_prefix(i)
+            } else {
+                self.apply_generation(i)
+            };
+            if !applied {
+                return;
+            }
+        }
+    }
+
+    /// Applies the initial population's resolved candidates from the first unapplied one
+    /// on, in order, stopping at the target; returns whether it applied any.
+    fn apply_initial_prefix(&mut self, i: usize) -> bool {
+        let target = self.experiment.run.initial_population;
+        let cells = self.experiment.features.cell_count();
+        let generations = self.experiment.run.generations;
+        let r = &mut self.runs[i];
+        let mut applied = Vec::new();
+        let mut stats = GenerationStats::default();
+        let mut changed = BTreeSet::new();
+        while r.record.initial_passed < target {
+            let n = r.record.next_candidate;
+            let resolved = matches!(
+                r.step.get(&n),
+                Some(Pending {
+                    state: State::Resolved(_),
+                    ..
+                })
+            );
+            if !resolved {
+                break;
+            }
+            let p = r.step.remove(&n).expect("checked above");
+            let State::Resolved(outcome) = p.state else {
+                unreachable!()
+            };
+            let placement = r
+                .record
+                .library
+                .apply(CandidateNumber(n), &p.genome, &outcome);
+            stats.record(placement);
+            if let Outcome::Valid { cell, .. } = &outcome {
+                r.record.initial_passed += 1;
+                if matches!(placement, Placement::New | Placement::Improved) {
+                    changed.insert(*cell);
+                }
+            }
+            r.record.next_candidate = n + 1;
+            applied.push(AppliedCandidate {
+                number: CandidateNumber(n),
+                generation: 0,
+                genome: p.genome,
+                outcome,
+                placement,
+            });
+        }
+        if applied.is_empty() {
+            return false;
+        }
+        let complete = r.record.initial_passed == target;
+        if complete {
+            // The population is complete: later draws are not part of the run.
+            r.step.clear();
+            r.waiting.clear();
+            r.record.generation = 0;
+            r.record.finished = generations == 0;
+        }
+        let completed = complete.then(|| (0, r.record.library.summary(stats, cells)));
+        self.commit_step(i, applied, changed, completed);
+        if complete && !self.runs[i].record.finished {
+            self.open_generation(i);
+        }
+        true
+    }
+
+    /// Applies the current generation when every result is in; returns whether it did.
+    fn apply_generation(&mut self, i: usize) -> bool {
+        let cells = self.experiment.features.cell_count();
+        let generations = self.experiment.run.generations;
+        let r = &mut self.runs[i];
+        let complete = !r.step.is_empty()
+            && r.step
+                .values()
+                .all(|p| matches!(p.state, State::Resolved(_)));
+        if !complete {
+            return false;
+        }
+        let generation = r.record.generation + 1;
+        let mut stats = GenerationStats::default();
+        let mut changed = BTreeSet::new();
+        let mut applied = Vec::with_capacity(r.step.len());
+        for (n, p) in std::mem::take(&mut r.step) {
+            let State::Resolved(outcome) = p.state else {
+                unreachable!()
+            };
+            let placement = r
+                .record
+                .library
+                .apply(CandidateNumber(n), &p.genome, &outcome);
+            stats.record(placement);
+            if let (Outcome::Valid { cell, .. }, Placement::New | Placement::Improved) =
+                (&outcome, placement)
+            {
+                changed.insert(*cell);
+            }
+            r.record.next_candidate = n + 1;
+            applied.push(AppliedCandidate {
+                number: CandidateNumber(n),
+                generation,
+                genome: p.genome,
+                outcome,
+                placement,
+            });
+        }
+        r.record.generation = generation;
+        r.record.finished = generation == generations;
+        let stats = r.record.library.summary(stats, cells);
+        self.commit_step(i, applied, changed, Some((generation, stats)));
+        if !self.runs[i].record.finished {
+            self.open_generation(i);
+        }
+        true
+    }
+
+    fn commit_step(
+        &mut self,
+        i: usize,
+        candidates: Vec<AppliedCandidate>,
+        changed: BTreeSet<strider_common::CellIndex>,
+        completed: Option<(u32, GenerationStats)>,
+    ) {
+        let r = &self.runs[i].record;
+        let elites = changed
+            .into_iter()
+            .map(|c| {
+                (
+                    c,
+                    r.library
+                        .get(c)
+                        .expect("changed cells hold an elite")
+                        .clone(),
+                )
+            })
+            .collect();
+        self.writes.push(Write::Step(Box::new(StepCommit {
+            run: r.id,
+            position: r.position(),
+            candidates,
+            elites,
+            completed,
+        })));
+        if completed.is_some() {
+            self.steps_applied += 1;
+        }
+    }
+
+    /// Every run's progress.
+    pub fn progress(&self) -> Vec<RunProgress> {
+        let cells = self.experiment.features.cell_count();
+        self.runs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let resolved = r
+                    .step
+                    .values()
+                    .filter(|p| matches!(p.state, State::Resolved(_)))
+                    .count() as u64;
+                RunProgress {
+                    run: i as u32,
+                    scheme: r.record.spec.scheme,
+                    repeat: r.record.spec.repeat,
+                    seed: r.record.spec.seed,
+                    generation: r.record.generation,
+                    initial_passed: r.record.initial_passed,
+                    trials_done: r.record.next_candidate + resolved,
+                    trials_pending: r.step.len() as u64 - resolved,
+                    library: r.record.library.summary(GenerationStats::default(), cells),
+                    finished: r.record.finished,
+                }
+            })
+            .collect()
+    }
+
+    /// A run's record (position and library), for tests and tools.
+    pub fn run(&self, i: usize) -> Option<&RunRecord> {
+        self.runs.get(i).map(|r| &r.record)
+    }
+}

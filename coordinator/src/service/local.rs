@@ -1,0 +1,62 @@
+//! `strider-coordinator run`: the coordinator and a worker in one process, talking gRPC
+//! over loopback with a one-time secret, so one machine runs exactly what a cluster runs.
+
+use super::auth::Secret;
+use super::server::{serve, worker_url, ServeOptions};
+use crate::db::Db;
+use std::num::NonZeroUsize;
+use std::time::Duration;
+use strider_common::Experiment;
+use strider_worker::client::{work, ConnectOptions, Evaluator};
+use tokio::net::TcpListener;
+use tokio::sync::watch;
+
+/// Runs `experiment` (stored in `db`) to the end on `threads` local cores.
+pub async fn run_local(
+    db: Db,
+    experiment: Experiment,
+    threads: NonZeroUsize,
+    progress_every: Duration,
+) -> anyhow::Result<()> {
+    let listener = TcpListener::bind("127.0.0.1:0").await?;
+    let url = worker_url(listener.local_addr()?);
+    let secret = Secret::random();
+    let (stop_worker, stopped) = watch::channel(false);
+    let worker = tokio::spawn(work(
+        ConnectOptions {
+            url,
+            authorization: Some(secret.header_value()),
+            threads,
+            name: format!("local ({} threads)", threads),
+            build: strider_common::build_id(),
+            evaluator: Evaluator::Simulation,
+            drain: Duration::from_secs(5),
+            max_backoff: Duration::from_millis(500),
+        },
+        stopped,
+    ));
+    let opts = ServeOptions {
+        progress_every: Some(progress_every),
+        ..ServeOptions::default()
+    };
+    let stop = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    let served = serve(db, experiment, listener, secret, opts, stop);
+    tokio::pin!(served);
+    let mut worker = worker;
+    tokio::select! {
+        r = &mut served => {
+            let _ = stop_worker.send(true);
+            let _ = worker.await;
+            r
+        }
+        w = &mut worker => {
+            // The worker only ends by itself when refused: a bug, not a condition to wait out.
+            match w {
+                Ok(Err(e)) => Err(anyhow::anyhow!("the local worker stopped: {e}")),
+                _ => served.await,
+            }
+        }
+    }
+}

@@ -1,0 +1,105 @@
+//! The distributed coordinator: the scheduler behind a lock, the database writer, and the
+//! gRPC services (workers, clients, health, reflection) over them. Thin: every rule lives
+//! in [`crate::scheduler`].
+
+pub mod auth;
+pub mod client_api;
+pub mod local;
+pub mod server;
+pub mod worker_api;
+pub mod writer;
+
+use crate::scheduler::Scheduler;
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU32, AtomicU64};
+use std::sync::Mutex;
+use std::time::Instant;
+use tokio::sync::{mpsc, watch, Notify};
+use writer::WriterMessage;
+
+/// Results per second over the last minute, counted in one-second buckets.
+#[derive(Default)]
+pub struct Throughput {
+    buckets: VecDeque<(u64, u64)>,
+}
+
+impl Throughput {
+    const WINDOW: u64 = 60;
+
+    /// Counts one result at `second` (seconds since start).
+    pub fn record(&mut self, second: u64) {
+        match self.buckets.back_mut() {
+            Some((s, n)) if *s == second => *n += 1,
+            _ => self.buckets.push_back((second, 1)),
+        }
+        while self
+            .buckets
+            .front()
+            .is_some_and(|(s, _)| *s + Self::WINDOW <= second)
+        {
+            self.buckets.pop_front();
+        }
+    }
+
+    /// The rate over the last minute (or since `now` seconds ago, if less).
+    pub fn rate(&self, now: f64) -> f64 {
+        let from = (now - Self::WINDOW as f64).max(0.0);
+        let n: u64 = self
+            .buckets
+            .iter()
+            .filter(|(s, _)| *s as f64 >= from.floor())
+            .map(|(_, n)| n)
+            .sum();
+        n as f64 / (now - from).max(1.0)
+    }
+}
+
+/// What every connection shares.
+pub struct Shared {
+    scheduler: Mutex<Scheduler>,
+    writer: mpsc::UnboundedSender<WriterMessage>,
+    /// Woken when candidates may have become available.
+    work: Notify,
+    /// Steps completed (generations), for progress watchers.
+    steps: watch::Sender<u64>,
+    /// Whether every run is finished.
+    finished: watch::Sender<bool>,
+    /// Worker connections now.
+    workers: AtomicU32,
+    next_worker: AtomicU64,
+    throughput: Mutex<Throughput>,
+    started: Instant,
+    experiment_toml: String,
+    db: crate::db::Db,
+}
+
+impl Shared {
+    /// Runs `f` on the scheduler, hands its changes to the writer in order, and wakes
+    /// watchers and (when `wake` and work is available) waiting workers.
+    pub fn with<R>(&self, wake: bool, f: impl FnOnce(&mut Scheduler) -> R) -> R {
+        let mut s = self.scheduler.lock().expect("no panic while scheduling");
+        let out = f(&mut s);
+        let writes = s.take_writes();
+        if !writes.is_empty() {
+            // The writer only stops when the service does.
+            let _ = self.writer.send(WriterMessage::Writes(writes));
+        }
+        let steps = s.steps_applied();
+        self.steps
+            .send_if_modified(|v| std::mem::replace(v, steps) != steps);
+        let finished = s.finished();
+        self.finished
+            .send_if_modified(|v| std::mem::replace(v, finished) != finished);
+        let available = wake && s.available();
+        drop(s);
+        if available {
+            self.work.notify_waiters();
+        }
+        out
+    }
+
+    /// Seconds since the service started.
+    pub fn uptime(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+}

@@ -1,0 +1,265 @@
+//! Starting and stopping the distributed coordinator: load the runs from the database,
+//! start the writer, serve gRPC (workers, clients, health, reflection) on a listener,
+//! expire leases, print progress, and stop when every run is finished (or when asked),
+//! with everything committed.
+
+use super::auth::Secret;
+use super::client_api::{progress, ClientApi};
+use super::worker_api::WorkerApi;
+use super::writer::{run_writer, WriterMessage};
+use super::{Shared, Throughput};
+use crate::db::{canonical_toml, Db};
+use crate::scheduler::Scheduler;
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, AtomicU64};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use strider_common::Experiment;
+use strider_proto::v1::client_service_server::ClientServiceServer;
+use strider_proto::v1::worker_service_server::WorkerServiceServer;
+use tokio::net::TcpListener;
+use tokio::sync::{mpsc, oneshot, watch, Notify};
+
+/// Largest message accepted (a result is a few hundred bytes).
+pub const MAX_MESSAGE_BYTES: usize = 1 << 20;
+
+/// How the coordinator serves.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    /// Lease length without a heartbeat.
+    pub lease: Duration,
+    /// Leases a candidate may lose before it fails.
+    pub max_attempts: u32,
+    /// A progress line this often (none when `None`).
+    pub progress_every: Option<Duration>,
+    /// Keep serving clients after every run is finished (until asked to stop).
+    pub keep_serving: bool,
+    /// Write the URL workers should use here once listening (atomically).
+    pub address_file: Option<PathBuf>,
+}
+
+impl Default for ServeOptions {
+    fn default() -> Self {
+        Self {
+            lease: Duration::from_secs(60),
+            max_attempts: crate::scheduler::DEFAULT_MAX_ATTEMPTS,
+            progress_every: Some(Duration::from_secs(10)),
+            keep_serving: false,
+            address_file: None,
+        }
+    }
+}
+
+/// The URL a worker on another machine uses to reach `addr`.
+pub fn worker_url(addr: SocketAddr) -> String {
+    if addr.ip().is_unspecified() {
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .map(|h| h.trim().to_string())
+            .unwrap_or_else(|_| "localhost".into());
+        format!("http://{host}:{}", addr.port())
+    } else {
+        format!("http://{addr}")
+    }
+}
+
+fn write_atomically(path: &std::path::Path, text: &str) -> std::io::Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(&tmp, path)
+}
+
+/// Serves `experiment` (already stored in `db`) on `listener` until every run is finished
+/// (unless `keep_serving`) or `stop` completes; returns once everything is committed.
+pub async fn serve(
+    db: Db,
+    experiment: Experiment,
+    listener: TcpListener,
+    secret: Secret,
+    opts: ServeOptions,
+    stop: impl Future<Output = ()> + Send,
+) -> anyhow::Result<()> {
+    let runs = db.runs().await?;
+    let stored = db.pending().await?;
+    let next_worker = db.next_worker_id().await?;
+    let scheduler = Scheduler::new(
+        experiment.clone(),
+        runs,
+        stored,
+        opts.lease,
+        opts.max_attempts,
+    );
+    let (writer_tx, writer_rx) = mpsc::unbounded_channel();
+    let mut writer = tokio::spawn(run_writer(db.clone(), writer_rx));
+    let shared = Arc::new(Shared {
+        scheduler: Mutex::new(scheduler),
+        writer: writer_tx,
+        work: Notify::new(),
+        steps: watch::Sender::new(0),
+        finished: watch::Sender::new(false),
+        workers: AtomicU32::new(0),
+        next_worker: AtomicU64::new(next_worker),
+        throughput: Mutex::new(Throughput::default()),
+        started: Instant::now(),
+        experiment_toml: canonical_toml(&experiment),
+        db,
+    });
+    // Store what opening the steps wrote (draws settled without a trial, new generations).
+    shared.with(true, |_| ());
+
+    let addr = listener.local_addr()?;
+    let url = worker_url(addr);
+    if let Some(path) = &opts.address_file {
+        write_atomically(path, &format!("{url}\n"))
+            .map_err(|e| anyhow::anyhow!("address file {}: {e}", path.display()))?;
+    }
+    tracing::info!("serving experiment {:?} on {url}", experiment.name);
+
+    let (health, health_service) = tonic_health::server::health_reporter();
+    for name in ["strider.v1.WorkerService", "strider.v1.ClientService", ""] {
+        health
+            .set_service_status(name, tonic_health::ServingStatus::Serving)
+            .await;
+    }
+    let reflection = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(strider_proto::FILE_DESCRIPTOR_SET)
+        .build_v1()?;
+    let interceptor = secret.interceptor();
+    let workers = WorkerServiceServer::new(WorkerApi {
+        shared: shared.clone(),
+    })
+    .max_decoding_message_size(MAX_MESSAGE_BYTES);
+    let clients = ClientServiceServer::new(ClientApi {
+        shared: shared.clone(),
+    })
+    .max_decoding_message_size(MAX_MESSAGE_BYTES);
+
+    let tasks = background(shared.clone(), &opts);
+    let mut finished = shared.finished.subscribe();
+    let keep_serving = opts.keep_serving;
+    let (server_stop_tx, server_stop_rx) = oneshot::channel::<()>();
+    let server = tonic::transport::Server::builder()
+        .tcp_nodelay(true)
+        .http2_keepalive_interval(Some(Duration::from_secs(10)))
+        .http2_keepalive_timeout(Some(Duration::from_secs(20)))
+        .add_service(health_service)
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            reflection,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            workers,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            clients,
+            interceptor,
+        ))
+        .serve_with_incoming_shutdown(
+            tokio_stream::wrappers::TcpListenerStream::new(listener),
+            async {
+                let _ = server_stop_rx.await;
+            },
+        );
+    tokio::pin!(server);
+    tokio::pin!(stop);
+    let outcome: anyhow::Result<()> = loop {
+        tokio::select! {
+            r = &mut server => break r.map_err(anyhow::Error::from),
+            r = &mut writer => break match r {
+                Ok(Ok(())) => Err(anyhow::anyhow!("the database writer stopped")),
+                Ok(Err(e)) => Err(e.into()),
+                Err(e) => Err(anyhow::anyhow!("the database writer panicked: {e}")),
+            },
+            _ = &mut stop => break Ok(()),
+            r = finished.wait_for(|f| *f), if !keep_serving => {
+                if r.is_ok() {
+                    tracing::info!("every run is finished");
+                    break Ok(());
+                }
+            }
+        }
+    };
+    for t in tasks {
+        t.abort();
+    }
+    // Sessions tell their workers the experiment is over (or see the stream end); give
+    // them a moment, then stop serving whatever is left.
+    let _ = server_stop_tx.send(());
+    let _ = tokio::time::timeout(Duration::from_secs(5), &mut server).await;
+    outcome?;
+    // Everything the scheduler produced is committed before returning.
+    let (done_tx, done_rx) = oneshot::channel();
+    let _ = shared.writer.send(WriterMessage::Flush(done_tx));
+    tokio::select! {
+        r = done_rx => r.map_err(|_| anyhow::anyhow!("the database writer stopped"))?,
+        r = &mut writer => match r {
+            Ok(Err(e)) => return Err(e.into()),
+            _ => anyhow::bail!("the database writer stopped"),
+        },
+    }
+    if shared.with(false, |s| s.finished()) {
+        eprintln!("{}", progress_line(&shared));
+    }
+    Ok(())
+}
+
+/// Lease expiry and the progress line.
+fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::JoinHandle<()>> {
+    let mut tasks = Vec::new();
+    let tick = (opts.lease / 4).clamp(Duration::from_millis(50), Duration::from_secs(1));
+    let s = shared.clone();
+    tasks.push(tokio::spawn(async move {
+        let mut every = tokio::time::interval(tick);
+        loop {
+            every.tick().await;
+            let expired = s.with(true, |sch| sch.expire(Instant::now()));
+            if expired > 0 {
+                tracing::warn!(
+                    "{expired} leases expired; their candidates wait for another worker"
+                );
+            }
+        }
+    }));
+    if let Some(period) = opts.progress_every {
+        tasks.push(tokio::spawn(async move {
+            let mut every = tokio::time::interval(period);
+            every.tick().await;
+            loop {
+                every.tick().await;
+                eprintln!("{}", progress_line(&shared));
+            }
+        }));
+    }
+    tasks
+}
+
+/// One line of progress: throughput, workers, and each run's state.
+pub fn progress_line(shared: &Shared) -> String {
+    let p = progress(shared);
+    let mut line = format!(
+        "[{:7.1} s] {:.1} results/s, {} workers",
+        shared.uptime(),
+        p.trials_per_second,
+        p.workers_connected
+    );
+    let initial = shared.with(false, |s| s.experiment().run.initial_population);
+    for r in &p.runs {
+        let phase = if r.finished {
+            "finished".to_string()
+        } else if r.initial_passed < initial {
+            format!("initial {}/{initial}", r.initial_passed)
+        } else {
+            format!("generation {}/{}", r.generation, r.generations)
+        };
+        line.push_str(&format!(
+            " | run {}: {phase}, {} trials, coverage {:.2} %, best {:.4}",
+            r.run,
+            r.trials_done,
+            100.0 * r.coverage,
+            r.best_fitness
+        ));
+    }
+    line
+}

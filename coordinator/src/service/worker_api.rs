@@ -1,0 +1,303 @@
+//! `strider.v1.WorkerService`: one bidirectional stream per worker process. The session
+//! keeps the worker's slots filled with leases, takes its results, heartbeats and
+//! releases, and gives every lease back the moment the stream ends.
+
+use super::Shared;
+use crate::db::Write;
+use crate::scheduler::{CandidateKey, Refusal, WorkerId};
+use std::collections::HashSet;
+use std::pin::Pin;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::Instant;
+use strider_common::rng::CandidateNumber;
+use strider_common::Outcome;
+use strider_proto::convert::scheme_to_wire;
+use strider_proto::v1::{
+    self, coordinator_message, worker_message, worker_service_server::WorkerService,
+    CoordinatorMessage, WorkerMessage,
+};
+use strider_proto::PROTOCOL_VERSION;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::{Request, Response, Status, Streaming};
+
+/// Most candidates one worker may hold.
+pub const MAX_SLOTS: u32 = 4096;
+
+/// The worker service.
+pub struct WorkerApi {
+    pub(crate) shared: Arc<Shared>,
+}
+
+type Outbound = mpsc::Sender<Result<CoordinatorMessage, Status>>;
+
+fn message(kind: coordinator_message::Kind) -> Result<CoordinatorMessage, Status> {
+    Ok(CoordinatorMessage { kind: Some(kind) })
+}
+
+/// A candidate id off the wire.
+pub fn key_from_wire(id: Option<&v1::CandidateId>) -> Result<CandidateKey, Status> {
+    let id = id.ok_or_else(|| Status::invalid_argument("id: missing"))?;
+    Ok(CandidateKey {
+        run: id.run,
+        generation: id.generation,
+        number: CandidateNumber(id.number),
+    })
+}
+
+fn key_to_wire(k: CandidateKey) -> v1::CandidateId {
+    v1::CandidateId {
+        run: k.run,
+        generation: k.generation,
+        number: k.number.0,
+    }
+}
+
+#[tonic::async_trait]
+impl WorkerService for WorkerApi {
+    type WorkStream =
+        Pin<Box<dyn tokio_stream::Stream<Item = Result<CoordinatorMessage, Status>> + Send>>;
+
+    async fn work(
+        &self,
+        request: Request<Streaming<WorkerMessage>>,
+    ) -> Result<Response<Self::WorkStream>, Status> {
+        let mut inbound = request.into_inner();
+        let hello = match inbound.message().await? {
+            Some(WorkerMessage {
+                kind: Some(worker_message::Kind::Hello(h)),
+            }) => h,
+            Some(_) => return Err(Status::invalid_argument("the first message must be Hello")),
+            None => return Err(Status::invalid_argument("the stream ended before Hello")),
+        };
+        if hello.protocol_version != PROTOCOL_VERSION {
+            return Err(Status::failed_precondition(format!(
+                "protocol version mismatch: the worker speaks version {}, this coordinator version {PROTOCOL_VERSION}",
+                hello.protocol_version
+            )));
+        }
+        if hello.build != strider_common::build_id() {
+            return Err(Status::failed_precondition(format!(
+                "build mismatch: the worker is {:?}, this coordinator {:?}; trials are bit-identical only within one build",
+                hello.build,
+                strider_common::build_id()
+            )));
+        }
+        if hello.slots == 0 || hello.slots > MAX_SLOTS {
+            return Err(Status::invalid_argument(format!(
+                "slots: {} is not in 1..={MAX_SLOTS}",
+                hello.slots
+            )));
+        }
+        let shared = self.shared.clone();
+        let id = WorkerId(shared.next_worker.fetch_add(1, Ordering::Relaxed));
+        let lease_seconds = shared.with(false, |s| s.lease_duration().as_secs_f64());
+        let (tx, rx) = mpsc::channel(hello.slots as usize + 16);
+        tx.send(message(coordinator_message::Kind::Welcome(v1::Welcome {
+            protocol_version: PROTOCOL_VERSION,
+            experiment: shared.with(false, |s| s.experiment().name.clone()),
+            settings_toml: shared.experiment_toml.clone(),
+            lease_seconds: lease_seconds.ceil() as u32,
+        })))
+        .await
+        .map_err(|_| Status::cancelled("the worker went away"))?;
+        let _ = shared
+            .writer
+            .send(super::WriterMessage::Writes(vec![Write::WorkerJoined {
+                id: id.0,
+                name: hello.worker_name.clone(),
+                build: hello.build.clone(),
+                slots: hello.slots,
+            }]));
+        shared.workers.fetch_add(1, Ordering::Relaxed);
+        tracing::info!(worker = id.0, name = %hello.worker_name, slots = hello.slots, "worker connected");
+        let session = Session {
+            shared,
+            id,
+            slots: hello.slots as usize,
+            held: HashSet::new(),
+            results: 0,
+            tx,
+        };
+        tokio::spawn(session.run(inbound));
+        Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
+    }
+}
+
+struct Session {
+    shared: Arc<Shared>,
+    id: WorkerId,
+    slots: usize,
+    /// Candidates leased to this worker and not answered.
+    held: HashSet<CandidateKey>,
+    results: u64,
+    tx: Outbound,
+}
+
+impl Session {
+    async fn run(mut self, mut inbound: Streaming<WorkerMessage>) {
+        let shared = self.shared.clone();
+        let mut finished = shared.finished.subscribe();
+        let reason = loop {
+            if *finished.borrow_and_update() {
+                let _ = self
+                    .tx
+                    .send(message(coordinator_message::Kind::Finished(
+                        v1::Finished {},
+                    )))
+                    .await;
+                break "the experiment is finished".to_string();
+            }
+            let work = shared.work.notified();
+            tokio::pin!(work);
+            work.as_mut().enable();
+            if let Err(reason) = self.top_up().await {
+                break reason;
+            }
+            tokio::select! {
+                m = inbound.message() => match m {
+                    Ok(Some(m)) => {
+                        if let Err(status) = self.handle(m) {
+                            tracing::warn!(worker = self.id.0, "refused: {}", status.message());
+                            // A misbehaving worker is cut off; what it held waits for others.
+                            let held: Vec<CandidateKey> = self.held.iter().copied().collect();
+                            self.shared.with(true, |s| s.release(self.id, &held));
+                            let reason = format!("refused: {}", status.message());
+                            let _ = self.tx.send(Err(status)).await;
+                            break reason;
+                        }
+                    }
+                    Ok(None) => break "the worker closed its stream".into(),
+                    Err(e) => break format!("stream error: {}", e.message()),
+                },
+                _ = &mut work => {}
+                _ = finished.changed() => {}
+                _ = self.tx.closed() => break "the worker went away".into(),
+            }
+        };
+        let why = reason.clone();
+        self.shared.with(true, |s| s.disconnect(self.id, &why));
+        self.shared.workers.fetch_sub(1, Ordering::Relaxed);
+        let _ = self
+            .shared
+            .writer
+            .send(super::WriterMessage::Writes(vec![Write::WorkerLeft {
+                id: self.id.0,
+                results: self.results,
+                reason: reason.clone(),
+            }]));
+        tracing::info!(
+            worker = self.id.0,
+            results = self.results,
+            "worker left: {reason}"
+        );
+    }
+
+    /// Leases candidates until the worker's slots are full or none is available.
+    async fn top_up(&mut self) -> Result<(), String> {
+        let room = self.slots.saturating_sub(self.held.len());
+        if room == 0 {
+            return Ok(());
+        }
+        let id = self.id;
+        let leased = self
+            .shared
+            .with(false, |s| s.lease(id, Instant::now(), room));
+        for a in leased {
+            self.held.insert(a.key);
+            let m = coordinator_message::Kind::Assignment(v1::Assignment {
+                id: Some(key_to_wire(a.key)),
+                genome: Some((&a.genome).into()),
+                scheme: scheme_to_wire(a.scheme).into(),
+                run_seed: a.run_seed.0,
+            });
+            if self.tx.send(message(m)).await.is_err() {
+                return Err("the worker went away".into());
+            }
+        }
+        Ok(())
+    }
+
+    fn handle(&mut self, m: WorkerMessage) -> Result<(), Status> {
+        match m.kind {
+            Some(worker_message::Kind::Result(r)) => self.result(r),
+            Some(worker_message::Kind::Heartbeat(h)) => {
+                let keys = h
+                    .in_progress
+                    .iter()
+                    .map(|k| key_from_wire(Some(k)))
+                    .collect::<Result<Vec<_>, _>>()?;
+                let id = self.id;
+                self.shared
+                    .with(false, |s| s.heartbeat(id, &keys, Instant::now()));
+                Ok(())
+            }
+            Some(worker_message::Kind::Release(r)) => {
+                let keys = r
+                    .candidates
+                    .iter()
+                    .map(|k| key_from_wire(Some(k)))
+                    .collect::<Result<Vec<_>, _>>()?;
+                for k in &keys {
+                    self.held.remove(k);
+                }
+                let id = self.id;
+                self.shared.with(true, |s| s.release(id, &keys));
+                Ok(())
+            }
+            Some(worker_message::Kind::Hello(_)) => {
+                Err(Status::invalid_argument("Hello may only open the stream"))
+            }
+            None => Err(Status::invalid_argument("empty message")),
+        }
+    }
+
+    fn result(&mut self, r: v1::Result) -> Result<(), Status> {
+        let key = key_from_wire(r.id.as_ref())?;
+        if !self.held.contains(&key) {
+            return Err(Status::failed_precondition(format!(
+                "{key} is not leased to this worker"
+            )));
+        }
+        if !r.seconds.is_finite() || r.seconds < 0.0 {
+            return Err(Status::invalid_argument(format!(
+                "seconds: {} is not a duration",
+                r.seconds
+            )));
+        }
+        let wire = r
+            .outcome
+            .as_ref()
+            .ok_or_else(|| Status::invalid_argument("outcome: missing"))?;
+        let outcome =
+            Outcome::try_from(wire).map_err(|e| Status::invalid_argument(e.to_string()))?;
+        let id = self.id;
+        let accepted = self.shared.with(true, |s| {
+            if let Outcome::Valid { features, cell, .. } = &outcome {
+                let expected = s.experiment().features.cell_of(features).ok();
+                if expected != Some(*cell) {
+                    return Err(Status::invalid_argument(format!(
+                        "outcome.valid.cell: {} does not match the features (cell {:?})",
+                        cell.0,
+                        expected.map(|c| c.0)
+                    )));
+                }
+            }
+            s.accept(id, key, outcome, r.seconds).map_err(|e| match e {
+                Refusal::NoSuchRun(_) => Status::not_found(e.to_string()),
+                Refusal::Unknown(_) => Status::not_found(e.to_string()),
+            })
+        })?;
+        self.held.remove(&key);
+        self.results += 1;
+        let second = self.shared.uptime() as u64;
+        self.shared
+            .throughput
+            .lock()
+            .expect("no panic while counting")
+            .record(second);
+        tracing::trace!(worker = id.0, %key, ?accepted, "result");
+        Ok(())
+    }
+}

@@ -1,0 +1,370 @@
+//! The worker process's side of `strider.v1.WorkerService`: connect (retrying with backoff
+//! while the coordinator is not there yet or restarts), say Hello, evaluate assignments on
+//! every core, stream each result back as soon as it is ready, keep leases alive with
+//! heartbeats, and on shutdown give back what has not started and finish (or give back)
+//! the rest within a bound.
+
+use crate::evaluate::{evaluate, EvalContext};
+use crate::synthetic::instant_outcome;
+use std::collections::{BTreeSet, VecDeque};
+use std::num::NonZeroUsize;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use strider_common::rng::CandidateSeed;
+use strider_common::{Experiment, Genome, Outcome, Scheme};
+use strider_proto::convert::scheme_from_wire;
+use strider_proto::v1::{
+    self, coordinator_message, worker_message, worker_service_client::WorkerServiceClient,
+    WorkerMessage,
+};
+use strider_proto::PROTOCOL_VERSION;
+use tokio::sync::{mpsc, watch, Semaphore};
+use tokio::task::JoinSet;
+use tonic::metadata::MetadataValue;
+use tonic::transport::Endpoint;
+use tonic::{Code, Request, Status};
+
+/// How results are produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluator {
+    /// Simulate (the only real one).
+    Simulation,
+    /// **Benchmark only**: instant made-up results (see [`crate::synthetic`]).
+    InstantSyntheticResults,
+}
+
+/// How to reach the coordinator and what to offer it.
+#[derive(Clone, Debug)]
+pub struct ConnectOptions {
+    /// `http://host:port`.
+    pub url: String,
+    /// The `authorization` metadata value (`Bearer <secret>`), if the coordinator wants one.
+    pub authorization: Option<String>,
+    /// Trials at once.
+    pub threads: NonZeroUsize,
+    /// Name for the coordinator's logs.
+    pub name: String,
+    /// The build (the coordinator refuses another one: trials are bit-identical only
+    /// within a build).
+    pub build: String,
+    /// How results are produced.
+    pub evaluator: Evaluator,
+    /// On shutdown, how long running trials may take to finish before they are given back.
+    pub drain: Duration,
+    /// Longest wait between connection attempts.
+    pub max_backoff: Duration,
+}
+
+/// Why the worker stopped for good.
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    /// The coordinator refused it in a way retrying cannot fix.
+    #[error("the coordinator refused this worker: {0}")]
+    Refused(String),
+    /// The coordinator's URL is malformed.
+    #[error("coordinator URL {url}: {problem}")]
+    BadUrl {
+        /// The URL.
+        url: String,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// How a session ended.
+enum End {
+    /// The experiment is finished.
+    Finished,
+    /// Asked to shut down; done.
+    ShutDown,
+    /// Connection lost (or never made); try again. `true` when the session got as far as
+    /// a Welcome (so backoff restarts).
+    Lost(String, bool),
+}
+
+/// Works for the coordinator until the experiment is finished or `shutdown` turns true.
+pub async fn work(
+    opts: ConnectOptions,
+    mut shutdown: watch::Receiver<bool>,
+) -> Result<(), WorkerError> {
+    let endpoint = Endpoint::from_shared(opts.url.clone())
+        .map_err(|e| WorkerError::BadUrl {
+            url: opts.url.clone(),
+            problem: e.to_string(),
+        })?
+        .connect_timeout(Duration::from_secs(5))
+        .tcp_nodelay(true)
+        .http2_keep_alive_interval(Duration::from_secs(10))
+        .keep_alive_timeout(Duration::from_secs(20));
+    let authorization = opts
+        .authorization
+        .as_deref()
+        .map(|a| {
+            MetadataValue::try_from(a).map_err(|_| {
+                WorkerError::Refused(
+                    "the secret holds characters gRPC metadata cannot carry".into(),
+                )
+            })
+        })
+        .transpose()?;
+    // Shared across sessions, so trials of a lost session still running keep their cores.
+    let cores = Arc::new(Semaphore::new(opts.threads.get()));
+    let first_backoff = Duration::from_millis(100);
+    let mut backoff = first_backoff;
+    loop {
+        if *shutdown.borrow() {
+            return Ok(());
+        }
+        let end = session(
+            &opts,
+            &endpoint,
+            authorization.clone(),
+            &cores,
+            &mut shutdown,
+        )
+        .await?;
+        match end {
+            End::Finished => {
+                tracing::info!("the experiment is finished");
+                return Ok(());
+            }
+            End::ShutDown => return Ok(()),
+            End::Lost(why, welcomed) => {
+                if welcomed {
+                    backoff = first_backoff;
+                }
+                tracing::warn!(
+                    "not connected to {}: {why}; retrying in {backoff:?}",
+                    opts.url
+                );
+            }
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(backoff) => {}
+            _ = shutdown.changed() => return Ok(()),
+        }
+        backoff = (backoff * 2).min(opts.max_backoff);
+    }
+}
+
+/// Statuses retrying will not fix.
+fn permanent(s: &Status) -> bool {
+    matches!(
+        s.code(),
+        Code::Unauthenticated | Code::FailedPrecondition | Code::PermissionDenied
+    )
+}
+
+struct Job {
+    id: v1::CandidateId,
+    genome: Genome,
+    scheme: Scheme,
+    seed: CandidateSeed,
+}
+
+fn job(a: v1::Assignment) -> Result<Job, String> {
+    let id = a.id.ok_or("assignment without an id")?;
+    let genome = a
+        .genome
+        .as_ref()
+        .ok_or("assignment without a genome")
+        .and_then(|g| Genome::try_from(g).map_err(|_| "assignment with a malformed genome"))
+        .map_err(String::from)?;
+    let scheme = scheme_from_wire(a.scheme).map_err(|e| e.to_string())?;
+    Ok(Job {
+        seed: CandidateSeed::new(a.run_seed, id.number),
+        id,
+        genome,
+        scheme,
+    })
+}
+
+fn msg(kind: worker_message::Kind) -> WorkerMessage {
+    WorkerMessage { kind: Some(kind) }
+}
+
+type Done = (v1::CandidateId, Outcome, f64);
+
+async fn session(
+    opts: &ConnectOptions,
+    endpoint: &Endpoint,
+    authorization: Option<MetadataValue<tonic::metadata::Ascii>>,
+    cores: &Arc<Semaphore>,
+    shutdown: &mut watch::Receiver<bool>,
+) -> Result<End, WorkerError> {
+    let channel = match endpoint.connect().await {
+        Ok(c) => c,
+        Err(e) => return Ok(End::Lost(format!("connecting: {e}"), false)),
+    };
+    let mut client = WorkerServiceClient::with_interceptor(channel, move |mut r: Request<()>| {
+        if let Some(a) = &authorization {
+            r.metadata_mut().insert("authorization", a.clone());
+        }
+        Ok(r)
+    });
+    let slots = opts.threads.get() * 2;
+    let (out, out_rx) = mpsc::channel::<WorkerMessage>(slots + 64);
+    out.send(msg(worker_message::Kind::Hello(v1::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        worker_name: opts.name.clone(),
+        slots: slots as u32,
+        build: opts.build.clone(),
+    })))
+    .await
+    .expect("the channel is open");
+    let mut inbound = match client
+        .work(tokio_stream::wrappers::ReceiverStream::new(out_rx))
+        .await
+    {
+        Ok(r) => r.into_inner(),
+        Err(s) if permanent(&s) => return Err(WorkerError::Refused(s.message().to_string())),
+        Err(s) => {
+            return Ok(End::Lost(
+                format!("opening the stream: {}", s.message()),
+                false,
+            ))
+        }
+    };
+    let ctx = match inbound.message().await {
+        Ok(Some(v1::CoordinatorMessage {
+            kind: Some(coordinator_message::Kind::Welcome(w)),
+        })) => {
+            if w.protocol_version != PROTOCOL_VERSION {
+                return Err(WorkerError::Refused(format!(
+                    "protocol version mismatch: this worker speaks version {PROTOCOL_VERSION}, the coordinator version {}",
+                    w.protocol_version
+                )));
+            }
+            let e = Experiment::from_toml(&w.settings_toml).map_err(|e| {
+                WorkerError::Refused(format!("the coordinator's experiment does not load: {e}"))
+            })?;
+            tracing::info!(experiment = %w.experiment, lease_seconds = w.lease_seconds, "connected to {}", opts.url);
+            (EvalContext::of(&e), w.lease_seconds)
+        }
+        Ok(Some(_)) => {
+            return Ok(End::Lost(
+                "the coordinator did not send Welcome first".into(),
+                false,
+            ))
+        }
+        Ok(None) => return Ok(End::Lost("the coordinator closed the stream".into(), false)),
+        Err(s) if permanent(&s) => return Err(WorkerError::Refused(s.message().to_string())),
+        Err(s) => return Ok(End::Lost(s.message().to_string(), false)),
+    };
+    let (ctx, lease_seconds) = ctx;
+    let mut heartbeat = tokio::time::interval(Duration::from_secs_f64(
+        (f64::from(lease_seconds) / 3.0).max(0.2),
+    ));
+    let mut queue: VecDeque<Job> = VecDeque::new();
+    let mut running: BTreeSet<(u32, u32, u64)> = BTreeSet::new();
+    let mut trials: JoinSet<Done> = JoinSet::new();
+    let evaluator = opts.evaluator;
+    let lost = |why: String| Ok(End::Lost(why, true));
+    loop {
+        tokio::select! {
+            m = inbound.message() => match m {
+                Ok(Some(v1::CoordinatorMessage { kind: Some(coordinator_message::Kind::Assignment(a)) })) => {
+                    match job(a) {
+                        Ok(j) => queue.push_back(j),
+                        Err(why) => return lost(format!("bad assignment: {why}")),
+                    }
+                }
+                Ok(Some(v1::CoordinatorMessage { kind: Some(coordinator_message::Kind::Finished(_)) })) => {
+                    return Ok(End::Finished);
+                }
+                Ok(Some(_)) => {}
+                Ok(None) => return lost("the coordinator closed the stream".into()),
+                Err(s) if permanent(&s) => return Err(WorkerError::Refused(s.message().to_string())),
+                Err(s) => return lost(s.message().to_string()),
+            },
+            permit = cores.clone().acquire_owned(), if !queue.is_empty() => {
+                let permit = permit.expect("the semaphore is never closed");
+                let j = queue.pop_front().expect("checked non-empty");
+                running.insert((j.id.run, j.id.generation, j.id.number));
+                trials.spawn_blocking(move || {
+                    let _core = permit;
+                    let start = Instant::now();
+                    let outcome = match evaluator {
+                        Evaluator::Simulation => evaluate(&ctx, &j.genome, j.scheme, j.seed),
+                        Evaluator::InstantSyntheticResults => instant_outcome(&ctx, &j.genome, j.scheme, j.seed),
+                    };
+                    (j.id, outcome, start.elapsed().as_secs_f64())
+                });
+            },
+            Some(done) = trials.join_next() => {
+                let (id, outcome, seconds) = done.expect("trials do not panic");
+                running.remove(&(id.run, id.generation, id.number));
+                let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
+                if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
+                    return lost("the stream closed".into());
+                }
+            },
+            _ = heartbeat.tick() => {
+                let in_progress: Vec<v1::CandidateId> = running
+                    .iter()
+                    .map(|&(run, generation, number)| v1::CandidateId { run, generation, number })
+                    .chain(queue.iter().map(|j| j.id))
+                    .collect();
+                if !in_progress.is_empty()
+                    && out.send(msg(worker_message::Kind::Heartbeat(v1::Heartbeat { in_progress }))).await.is_err()
+                {
+                    return lost("the stream closed".into());
+                }
+            },
+            _ = shutdown.changed() => {
+                drain(opts.drain, &out, queue, running, &mut trials).await;
+                return Ok(End::ShutDown);
+            },
+        }
+    }
+}
+
+/// Shutdown: gives back what has not started, lets running trials finish for up to
+/// `bound` and sends their results, then gives back the rest.
+async fn drain(
+    bound: Duration,
+    out: &mpsc::Sender<WorkerMessage>,
+    queue: VecDeque<Job>,
+    mut running: BTreeSet<(u32, u32, u64)>,
+    trials: &mut JoinSet<Done>,
+) {
+    let release = |candidates: Vec<v1::CandidateId>| {
+        msg(worker_message::Kind::Release(v1::Release { candidates }))
+    };
+    let queued: Vec<v1::CandidateId> = queue.iter().map(|j| j.id).collect();
+    if !queued.is_empty() {
+        let _ = out.send(release(queued)).await;
+    }
+    tracing::info!(
+        running = trials.len(),
+        "shutting down: finishing running trials for up to {bound:?}"
+    );
+    let deadline = tokio::time::Instant::now() + bound;
+    loop {
+        tokio::select! {
+            next = trials.join_next() => match next {
+                Some(Ok((id, outcome, seconds))) => {
+                    running.remove(&(id.run, id.generation, id.number));
+                    let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
+                    let _ = out.send(msg(worker_message::Kind::Result(r))).await;
+                }
+                Some(Err(_)) => {}
+                None => break,
+            },
+            _ = tokio::time::sleep_until(deadline) => break,
+        }
+    }
+    if !running.is_empty() {
+        let left = running
+            .iter()
+            .map(|&(run, generation, number)| v1::CandidateId {
+                run,
+                generation,
+                number,
+            })
+            .collect();
+        let _ = out.send(release(left)).await;
+    }
+    // Threads still simulating finish in the background; the process does not wait.
+    trials.detach_all();
+}

@@ -1,0 +1,50 @@
+//! **Benchmark only.** Instant, made-up results, so that a benchmark can measure how many
+//! results a coordinator accepts per second without waiting for simulations. Never a
+//! default: a worker uses it only when started with `--benchmark-instant-results`.
+//!
+//! The outcome is a deterministic function of the candidate (its features and cell are the
+//! design's real ones; fitness and statistics are invented), so runs stay reproducible.
+
+use crate::evaluate::{precheck, EvalContext};
+use strider_common::rng::CandidateSeed;
+use strider_common::{BodyPlan, Features, Genome, Outcome, Scheme, TrialStats};
+
+/// A made-up outcome for `genome`, in microseconds.
+pub fn instant_outcome(
+    ctx: &EvalContext,
+    genome: &Genome,
+    scheme: Scheme,
+    seed: CandidateSeed,
+) -> Outcome {
+    if let Some(o) = precheck(ctx, genome, scheme) {
+        return o;
+    }
+    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    let features = Features::of(&genome.morphology, &plan);
+    let cell = ctx
+        .grid
+        .cell_of(&features)
+        .expect("features of a valid genome are finite");
+    // A fitness in [0.5, 1.5) that depends on the candidate and its design.
+    let mix = seed
+        .candidate
+        .0
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(u64::from(cell.0).wrapping_mul(0xBF58_476D_1CE4_E5B9));
+    let fitness = 0.5 + (mix >> 11) as f64 / (1u64 << 53) as f64;
+    let mass = plan.total_mass();
+    Outcome::Valid {
+        fitness,
+        stats: TrialStats {
+            distance: 1.0,
+            energy: mass * 9.81 / fitness,
+            speed: 1.0,
+            mass,
+            cost_of_transport: 1.0 / fitness,
+            duration: 1.0,
+        },
+        features,
+        cell,
+        controller: genome.controller,
+    }
+}
