@@ -111,7 +111,7 @@ struct RunState {
     step: BTreeMap<u64, Pending>,
     /// Those waiting for a worker, lowest number first.
     waiting: BTreeSet<u64>,
-    /// The next initial-population number to draw.
+    /// One past the highest candidate number drawn (the next initial draw's number).
     frontier: u64,
 }
 
@@ -482,7 +482,9 @@ impl Scheduler {
             .expect("the library holds the initial population");
             self.add(i, number, generation, genome);
         }
-        self.runs[i].frontier = first + count;
+        // Never lower: spare initial draws above this range may still send late results.
+        let r = &mut self.runs[i];
+        r.frontier = r.frontier.max(first + count);
     }
 
     /// Adds a candidate to the step: its stored result if the database has one, else

@@ -1,0 +1,286 @@
+//! The scheduler's rules, without a network or a database: results in any order, from any
+//! number of workers, lost leases and duplicates all give the same libraries; a candidate
+//! that keeps losing its lease fails and its generation goes on.
+
+use std::time::{Duration, Instant};
+use strider_common::rng::{CandidateNumber, CandidateSeed};
+use strider_common::{Experiment, InvalidReason, Outcome};
+use strider_coordinator::db::{RunRecord, Write};
+use strider_coordinator::library::Library;
+use strider_coordinator::scheduler::{
+    Accepted, Assignment, CandidateKey, Refusal, Scheduler, WorkerId,
+};
+use strider_worker::evaluate::EvalContext;
+use strider_worker::synthetic::instant_outcome;
+
+const EXPERIMENT: &str = r#"
+name = "scheduler"
+schemes = ["static", "genome"]
+repeats = 1
+seed = 5
+[run]
+initial_population = 6
+offspring_per_generation = 10
+generations = 5
+"#;
+
+const LEASE: Duration = Duration::from_secs(10);
+
+fn experiment() -> Experiment {
+    Experiment::from_toml(EXPERIMENT).unwrap()
+}
+
+fn fresh(e: &Experiment, max_attempts: u32) -> Scheduler {
+    let runs = e
+        .runs()
+        .into_iter()
+        .enumerate()
+        .map(|(i, spec)| RunRecord {
+            id: i as i64,
+            spec,
+            generation: 0,
+            initial_passed: 0,
+            next_candidate: 0,
+            finished: false,
+            library: Library::new(),
+        })
+        .collect();
+    Scheduler::new(e.clone(), runs, Vec::new(), LEASE, max_attempts)
+}
+
+/// The made-up but deterministic outcome a benchmark worker would send.
+fn outcome_of(e: &Experiment, a: &Assignment) -> Outcome {
+    instant_outcome(
+        &EvalContext::of(e),
+        &a.genome,
+        a.scheme,
+        CandidateSeed::new(a.run_seed.0, a.key.number.0),
+    )
+}
+
+/// Runs to the end with `workers` workers each holding up to `slots`, answering in the
+/// order `reorder` gives; returns every run's library.
+fn drive(
+    workers: u64,
+    slots: usize,
+    reorder: impl Fn(&mut Vec<(WorkerId, Assignment)>),
+) -> Vec<Library> {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let mut rounds = 0;
+    while !s.finished() {
+        rounds += 1;
+        assert!(rounds < 100_000, "no progress");
+        let mut held = Vec::new();
+        for w in 0..workers {
+            for a in s.lease(WorkerId(w), now, slots) {
+                held.push((WorkerId(w), a));
+            }
+        }
+        reorder(&mut held);
+        for (w, a) in held {
+            let o = outcome_of(&e, &a);
+            s.accept(w, a.key, o, 0.0).unwrap();
+        }
+    }
+    (0..2).map(|i| s.run(i).unwrap().library.clone()).collect()
+}
+
+#[test]
+fn libraries_do_not_depend_on_workers_or_the_order_results_arrive() {
+    let reference = drive(1, 1, |_| {});
+    assert!(reference.iter().all(|l| l.len() >= 6));
+    assert_eq!(drive(3, 4, |h| h.reverse()), reference);
+    assert_eq!(
+        drive(2, 7, |h| {
+            // A fixed shuffle.
+            let n = h.len();
+            for i in 0..n {
+                h.swap(i, (i * 7 + 3) % n);
+            }
+        }),
+        reference
+    );
+    assert_eq!(drive(5, 64, |_| {}), reference);
+}
+
+#[test]
+fn a_result_that_comes_twice_is_applied_once() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let a = s.lease(WorkerId(1), now, 1).pop().unwrap();
+    let o = outcome_of(&e, &a);
+    assert_eq!(
+        s.accept(WorkerId(1), a.key, o.clone(), 0.0),
+        Ok(Accepted::Stored)
+    );
+    assert_eq!(s.accept(WorkerId(1), a.key, o, 0.0), Ok(Accepted::Duplicate));
+    let stored = s
+        .take_writes()
+        .iter()
+        .filter(|w| matches!(w, Write::Resolved { .. }))
+        .count();
+    assert_eq!(stored, 1);
+}
+
+#[test]
+fn unknown_candidates_and_runs_are_refused() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let a = s.lease(WorkerId(1), now, 1).pop().unwrap();
+    let o = outcome_of(&e, &a);
+    let far = CandidateKey {
+        number: CandidateNumber(1_000_000),
+        ..a.key
+    };
+    assert_eq!(
+        s.accept(WorkerId(1), far, o.clone(), 0.0),
+        Err(Refusal::Unknown(far))
+    );
+    let no_run = CandidateKey { run: 7, ..a.key };
+    assert_eq!(
+        s.accept(WorkerId(1), no_run, o, 0.0),
+        Err(Refusal::NoSuchRun(7))
+    );
+}
+
+#[test]
+fn expired_leases_are_handed_out_again_and_late_results_change_nothing() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let t0 = Instant::now();
+    let first = s.lease(WorkerId(1), t0, 1).pop().unwrap();
+    // Nothing has expired yet: worker 2 gets something else.
+    assert_ne!(s.lease(WorkerId(2), t0, 1).pop().unwrap().key, first.key);
+    // Worker 1 stops answering; its lease runs out.
+    let later = t0 + LEASE + Duration::from_secs(1);
+    assert!(s.expire(later) >= 1);
+    let again = s.lease(WorkerId(3), later, 1).pop().unwrap();
+    assert_eq!(again.key, first.key, "the lowest waiting candidate goes first");
+    let o = outcome_of(&e, &again);
+    assert_eq!(
+        s.accept(WorkerId(3), again.key, o.clone(), 0.0),
+        Ok(Accepted::Stored)
+    );
+    // Worker 1 wakes up and sends the same result: ignored.
+    assert_eq!(s.accept(WorkerId(1), first.key, o, 0.0), Ok(Accepted::Duplicate));
+}
+
+#[test]
+fn heartbeats_keep_long_trials_leased() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let t0 = Instant::now();
+    let a = s.lease(WorkerId(1), t0, 1).pop().unwrap();
+    let t1 = t0 + LEASE - Duration::from_secs(1);
+    s.heartbeat(WorkerId(1), &[a.key], t1);
+    assert_eq!(s.expire(t0 + LEASE + Duration::from_secs(1)), 0);
+    assert_eq!(s.expire(t1 + LEASE + Duration::from_secs(1)), 1);
+}
+
+#[test]
+fn a_candidate_that_keeps_killing_workers_fails_and_its_generation_goes_on() {
+    let e = experiment();
+    let mut s = fresh(&e, 2);
+    let now = Instant::now();
+    // Finish the initial population of both runs.
+    while s.progress().iter().any(|p| p.initial_passed < 6) {
+        for a in s.lease(WorkerId(0), now, 8) {
+            let o = outcome_of(&e, &a);
+            s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
+        }
+    }
+    // The next candidate of generation 1 kills every worker that takes it.
+    let victim = loop {
+        let a = s.lease(WorkerId(0), now, 1).pop().unwrap();
+        if a.key.generation == 1 {
+            break a;
+        }
+        let o = outcome_of(&e, &a);
+        s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
+    };
+    s.disconnect(WorkerId(0), "connection lost");
+    let again = s.lease(WorkerId(1), now, 100);
+    assert!(again.iter().any(|a| a.key == victim.key));
+    s.disconnect(WorkerId(1), "connection lost");
+    s.take_writes();
+    // Two lost leases (the limit here): failed, with the reason, and never leased again.
+    while !s.finished() {
+        for a in s.lease(WorkerId(2), now, 8) {
+            assert_ne!(a.key, victim.key);
+            let o = outcome_of(&e, &a);
+            s.accept(WorkerId(2), a.key, o, 0.0).unwrap();
+        }
+        let writes = s.take_writes();
+        for w in writes {
+            if let Write::Step(step) = w {
+                for c in &step.candidates {
+                    if c.number == victim.key.number && step.run == i64::from(victim.key.run) {
+                        match &c.outcome {
+                            Outcome::Invalid {
+                                reason: InvalidReason::EvaluationFailed { attempts, last },
+                                ..
+                            } => {
+                                assert_eq!(*attempts, 2);
+                                assert!(last.contains("connection lost"), "{last}");
+                            }
+                            other => panic!("the victim was applied as {other:?}"),
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(s.progress().iter().all(|p| p.generation == 5));
+}
+
+#[test]
+fn a_late_result_for_an_unneeded_initial_draw_is_not_taken_for_an_offspring() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    // More draws of run 0 than its population needs (every trial passes here).
+    let draws: Vec<Assignment> = s
+        .lease(WorkerId(0), now, 40)
+        .into_iter()
+        .filter(|a| a.key.run == 0)
+        .collect();
+    assert!(draws.len() > 10);
+    let mut spare = Vec::new();
+    for a in draws {
+        if s.progress()[0].initial_passed < 6 {
+            s.accept(WorkerId(0), a.key, outcome_of(&e, &a), 0.0).unwrap();
+        } else {
+            spare.push(a);
+        }
+    }
+    assert_eq!(s.progress()[0].generation, 0);
+    assert!(!spare.is_empty());
+    // Generation 1 reuses the spare draws' numbers.
+    let offspring: Vec<Assignment> = s
+        .lease(WorkerId(1), now, 100)
+        .into_iter()
+        .filter(|a| a.key.run == 0)
+        .collect();
+    assert!(offspring.iter().all(|a| a.key.generation == 1));
+    assert!(offspring
+        .iter()
+        .any(|o| spare.iter().any(|a| a.key.number == o.key.number)));
+    // The spare draws' late results are ignored...
+    for a in &spare {
+        assert_eq!(
+            s.accept(WorkerId(0), a.key, outcome_of(&e, a), 0.0),
+            Ok(Accepted::Duplicate)
+        );
+    }
+    // ...so every offspring still takes its own.
+    for a in &offspring {
+        assert_eq!(
+            s.accept(WorkerId(1), a.key, outcome_of(&e, a), 0.0),
+            Ok(Accepted::Stored)
+        );
+    }
+}
