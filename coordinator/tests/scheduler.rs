@@ -116,7 +116,10 @@ fn a_result_that_comes_twice_is_applied_once() {
         s.accept(WorkerId(1), a.key, o.clone(), 0.0),
         Ok(Accepted::Stored)
     );
-    assert_eq!(s.accept(WorkerId(1), a.key, o, 0.0), Ok(Accepted::Duplicate));
+    assert_eq!(
+        s.accept(WorkerId(1), a.key, o, 0.0),
+        Ok(Accepted::Duplicate)
+    );
     let stored = s
         .take_writes()
         .iter()
@@ -159,14 +162,20 @@ fn expired_leases_are_handed_out_again_and_late_results_change_nothing() {
     let later = t0 + LEASE + Duration::from_secs(1);
     assert!(s.expire(later) >= 1);
     let again = s.lease(WorkerId(3), later, 1).pop().unwrap();
-    assert_eq!(again.key, first.key, "the lowest waiting candidate goes first");
+    assert_eq!(
+        again.key, first.key,
+        "the lowest waiting candidate goes first"
+    );
     let o = outcome_of(&e, &again);
     assert_eq!(
         s.accept(WorkerId(3), again.key, o.clone(), 0.0),
         Ok(Accepted::Stored)
     );
     // Worker 1 wakes up and sends the same result: ignored.
-    assert_eq!(s.accept(WorkerId(1), first.key, o, 0.0), Ok(Accepted::Duplicate));
+    assert_eq!(
+        s.accept(WorkerId(1), first.key, o, 0.0),
+        Ok(Accepted::Duplicate)
+    );
 }
 
 #[test]
@@ -252,7 +261,8 @@ fn a_late_result_for_an_unneeded_initial_draw_is_not_taken_for_an_offspring() {
     let mut spare = Vec::new();
     for a in draws {
         if s.progress()[0].initial_passed < 6 {
-            s.accept(WorkerId(0), a.key, outcome_of(&e, &a), 0.0).unwrap();
+            s.accept(WorkerId(0), a.key, outcome_of(&e, &a), 0.0)
+                .unwrap();
         } else {
             spare.push(a);
         }

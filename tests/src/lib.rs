@@ -57,3 +57,170 @@ pub fn run(name: &str, args: &[&str]) -> Output {
         .output()
         .expect("binary starts")
 }
+
+/// A fresh, empty directory for one test.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("strider-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// The whole library and every generation's statistics, as `export` writes them.
+pub fn export(db: &std::path::Path) -> serde_json::Value {
+    let out = run(
+        "strider-coordinator",
+        &["export", "--db", db.to_str().expect("utf-8 path")],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("export writes JSON")
+}
+
+/// Where two JSON values first differ, as `path: a vs b`.
+pub fn first_difference(
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+    path: &str,
+) -> Option<String> {
+    use serde_json::Value::{Array, Object};
+    match (a, b) {
+        (Object(x), Object(y)) => {
+            x.keys()
+                .chain(y.keys())
+                .find_map(|k| match (x.get(k), y.get(k)) {
+                    (Some(p), Some(q)) => first_difference(p, q, &format!("{path}.{k}")),
+                    _ => Some(format!("{path}.{k}: present on one side only")),
+                })
+        }
+        (Array(x), Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (p, q))| first_difference(p, q, &format!("{path}[{i}]"))),
+        _ if a == b => None,
+        _ => Some(format!("{path}: {a} vs {b}")),
+    }
+}
+
+/// Panics, naming the first difference, unless two exports hold the same library and
+/// statistics.
+pub fn assert_same_library(a: &serde_json::Value, b: &serde_json::Value) {
+    if let Some(d) = first_difference(a, b, "") {
+        panic!("the libraries differ at {d}");
+    }
+}
+
+/// A process started by a test: its stderr is collected line by line (and can be waited
+/// on), and it is killed and reaped when dropped, so no test leaves processes behind.
+pub struct Process {
+    child: std::process::Child,
+    lines: std::sync::mpsc::Receiver<String>,
+    log: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+    name: String,
+}
+
+impl Process {
+    /// Starts `cmd` with stderr captured.
+    pub fn spawn(name: &str, mut cmd: Command) -> Self {
+        use std::io::BufRead;
+        cmd.stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .current_dir(workspace_root());
+        let mut child = cmd.spawn().expect("process starts");
+        let stderr = child.stderr.take().expect("piped stderr");
+        let (tx, lines) = std::sync::mpsc::channel();
+        let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let keep = log.clone();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stderr).lines() {
+                let Ok(line) = line else { break };
+                keep.lock().expect("log lock").push(line.clone());
+                let _ = tx.send(line);
+            }
+        });
+        Self {
+            child,
+            lines,
+            log,
+            name: name.into(),
+        }
+    }
+
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Everything it has written to stderr so far.
+    pub fn log(&self) -> String {
+        self.log.lock().expect("log lock").join("\n")
+    }
+
+    /// Waits for a stderr line (from now on) that satisfies `pred`; panics with the log
+    /// when none comes within `timeout` or the process ends first.
+    pub fn wait_for_line(
+        &self,
+        what: &str,
+        pred: impl Fn(&str) -> bool,
+        timeout: std::time::Duration,
+    ) -> String {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if pred(&line) => return line,
+                Ok(_) => {}
+                Err(e) => panic!(
+                    "{}: no line {what} ({e:?}); its log:\n{}",
+                    self.name,
+                    self.log()
+                ),
+            }
+        }
+    }
+
+    /// Sends a signal (`libc::SIGSTOP`, ...).
+    pub fn signal(&self, signal: i32) {
+        // SAFETY: kill(2) on a child we own and have not reaped.
+        let r = unsafe { libc::kill(self.child.id() as i32, signal) };
+        assert_eq!(r, 0, "kill({}, {signal})", self.child.id());
+    }
+
+    /// Waits for it to exit by itself within `timeout`; panics with the log otherwise.
+    pub fn wait_exit(&mut self, timeout: std::time::Duration) -> std::process::ExitStatus {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            if let Some(status) = self.child.try_wait().expect("try_wait") {
+                return status;
+            }
+            assert!(
+                std::time::Instant::now() < deadline,
+                "{} did not exit within {timeout:?}; its log:\n{}",
+                self.name,
+                self.log()
+            );
+            // Polls the exit status: std offers no blocking wait with a time limit.
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A TCP port free on 127.0.0.1 right now (for a coordinator that must come back on the
+/// same port after a restart).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port()
+}

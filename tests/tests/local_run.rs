@@ -2,19 +2,12 @@
 //! and nothing lost when the coordinator is killed at any point and restarted.
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use strider_coordinator::db::Db;
-use strider_tests::{binary, run, workspace_root};
+use strider_tests::{assert_same_library, binary, export, run, temp_dir, workspace_root};
 
 const TINY: &str = "tests/fixtures/tiny.toml";
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("strider-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn run_to_end(db: &Path, workers: &str) {
     let out = run(
@@ -33,48 +26,6 @@ fn run_to_end(db: &Path, workers: &str) {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-/// The whole library and every generation's statistics, as exported.
-fn export(db: &Path) -> serde_json::Value {
-    let out = run(
-        "strider-coordinator",
-        &["export", "--db", db.to_str().unwrap()],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
-}
-
-/// The first place two JSON documents differ, or None.
-fn first_difference(a: &serde_json::Value, b: &serde_json::Value, path: &str) -> Option<String> {
-    use serde_json::Value::{Array, Object};
-    match (a, b) {
-        (Object(x), Object(y)) => {
-            x.keys()
-                .chain(y.keys())
-                .find_map(|k| match (x.get(k), y.get(k)) {
-                    (Some(p), Some(q)) => first_difference(p, q, &format!("{path}.{k}")),
-                    _ => Some(format!("{path}.{k}: present on one side only")),
-                })
-        }
-        (Array(x), Array(y)) if x.len() == y.len() => x
-            .iter()
-            .zip(y)
-            .enumerate()
-            .find_map(|(i, (p, q))| first_difference(p, q, &format!("{path}[{i}]"))),
-        _ if a == b => None,
-        _ => Some(format!("{path}: {a} vs {b}")),
-    }
-}
-
-fn assert_same_library(a: &serde_json::Value, b: &serde_json::Value) {
-    if let Some(d) = first_difference(a, b, "") {
-        panic!("the libraries differ at {d}");
-    }
 }
 
 fn integrity(db: &Path) -> String {

@@ -49,6 +49,9 @@ struct ConnectArgs {
     /// On SIGTERM, seconds running trials may take to finish before they are given back.
     #[arg(long, default_value_t = 10.0)]
     drain_seconds: f64,
+    /// Longest wait, in seconds, between attempts to reach the coordinator.
+    #[arg(long, default_value_t = 5.0)]
+    max_backoff_seconds: f64,
     /// BENCHMARK ONLY: answer every candidate instantly with a made-up result, to measure
     /// the coordinator. Never use for real runs.
     #[arg(long)]
@@ -189,7 +192,9 @@ fn connect(args: ConnectArgs, url: String) -> anyhow::Result<()> {
             Evaluator::Simulation
         },
         drain: std::time::Duration::from_secs_f64(args.drain_seconds),
-        max_backoff: std::time::Duration::from_secs(5),
+        max_backoff: std::time::Duration::from_secs_f64(
+            args.max_backoff_seconds.clamp(0.05, 600.0),
+        ),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

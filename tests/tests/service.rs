@@ -1,0 +1,204 @@
+//! The distributed service over real sockets with the real binaries: `serve` and
+//! `strider-worker --connect` processes, killed, stopped and restarted for real. Every
+//! run must end in the library `run` builds on one machine.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+use std::time::Duration;
+use strider_coordinator::db::Db;
+use strider_tests::{assert_same_library, binary, export, free_port, run, temp_dir, Process};
+
+const FIXTURE: &str = "tests/fixtures/service.toml";
+const SECRET: &str = "test-secret-0123456789abcdef";
+/// Generous bounds: CI machines are slow and busy; a healthy run takes seconds.
+const START: Duration = Duration::from_secs(60);
+const FINISH: Duration = Duration::from_secs(300);
+
+fn secret_file(dir: &Path) -> PathBuf {
+    let f = dir.join("secret");
+    std::fs::write(&f, format!("{SECRET}\n")).unwrap();
+    f
+}
+
+/// The library `run` builds on one machine (computed once per test process).
+fn reference() -> &'static serde_json::Value {
+    static REFERENCE: OnceLock<serde_json::Value> = OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        let dir = temp_dir("service-reference");
+        let db = dir.join("reference.db");
+        let out = run(
+            "strider-coordinator",
+            &[
+                "run",
+                FIXTURE,
+                "--db",
+                db.to_str().unwrap(),
+                "--workers",
+                "2",
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let e = export(&db);
+        std::fs::remove_dir_all(&dir).unwrap();
+        e
+    })
+}
+
+/// Starts `serve` on 127.0.0.1:`port` (0: any) and waits until it listens; returns it
+/// with the URL workers use.
+fn serve(dir: &Path, db: &Path, port: u16, lease: &str) -> (Process, String) {
+    let mut cmd = Command::new(binary("strider-coordinator"));
+    cmd.args([
+        "serve",
+        "--db",
+        db.to_str().unwrap(),
+        "--experiment",
+        FIXTURE,
+    ])
+    .args(["--listen", &format!("127.0.0.1:{port}")])
+    .args(["--token-file", secret_file(dir).to_str().unwrap()])
+    .args(["--lease-seconds", lease, "--progress-every", "0.1"]);
+    let p = Process::spawn("coordinator", cmd);
+    let line = p.wait_for_line(
+        "saying it serves",
+        |l| l.contains("serving experiment"),
+        START,
+    );
+    let url = line
+        .rsplit(" on ")
+        .next()
+        .expect("the line names the URL")
+        .trim()
+        .to_string();
+    (p, url)
+}
+
+fn worker(dir: &Path, url: &str, name: &str) -> Process {
+    let mut cmd = Command::new(binary("strider-worker"));
+    cmd.args(["--connect", url, "--threads", "1", "--name", name])
+        .args(["--token-file", secret_file(dir).to_str().unwrap()])
+        .args(["--max-backoff-seconds", "0.5", "--drain-seconds", "5"]);
+    Process::spawn(name, cmd)
+}
+
+fn integrity(db: &Path) -> String {
+    tokio::runtime::Runtime::new().unwrap().block_on(async {
+        Db::open(db, false)
+            .await
+            .unwrap()
+            .integrity_check()
+            .await
+            .unwrap()
+    })
+}
+
+fn finish(coordinator: &mut Process) {
+    let status = coordinator.wait_exit(FINISH);
+    assert!(
+        status.success(),
+        "coordinator failed:\n{}",
+        coordinator.log()
+    );
+}
+
+#[test]
+fn one_worker_and_three_workers_build_the_library_run_builds() {
+    let expected = reference();
+    for workers in [1, 3] {
+        let dir = temp_dir(&format!("service-{workers}-workers"));
+        let db = dir.join("served.db");
+        let (mut coordinator, url) = serve(&dir, &db, 0, "60");
+        let mut ws: Vec<Process> = (0..workers)
+            .map(|i| worker(&dir, &url, &format!("worker-{i}")))
+            .collect();
+        finish(&mut coordinator);
+        // Told that the experiment is finished, every worker exits by itself.
+        for w in &mut ws {
+            assert!(w.wait_exit(START).success(), "{}", w.log());
+        }
+        assert_same_library(&export(&db), expected);
+        assert_eq!(integrity(&db), "ok");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
+fn killed_stopped_and_terminated_workers_change_nothing() {
+    let expected = reference();
+    let dir = temp_dir("service-faults");
+    let db = dir.join("faults.db");
+    let (mut coordinator, url) = serve(&dir, &db, 0, "2");
+    // The first worker connects, is leased candidates, and is stopped holding them.
+    let stopped = worker(&dir, &url, "stopped");
+    coordinator.wait_for_line(
+        "for the first worker",
+        |l| l.contains("worker connected"),
+        START,
+    );
+    stopped.signal(libc::SIGSTOP);
+    let killed = worker(&dir, &url, "killed");
+    let mut terminated = worker(&dir, &url, "terminated");
+    let mut steady = worker(&dir, &url, "steady");
+    // Its leases run out and go to the others.
+    coordinator.wait_for_line(
+        "about expired leases",
+        |l| l.contains("leases expired"),
+        START,
+    );
+    coordinator.wait_for_line("at generation 3", |l| l.contains("generation 3/12"), FINISH);
+    killed.signal(libc::SIGKILL);
+    // The stopped worker wakes up and sends its stale results: they change nothing.
+    stopped.signal(libc::SIGCONT);
+    coordinator.wait_for_line("at generation 6", |l| l.contains("generation 6/12"), FINISH);
+    // SIGTERM: the worker gives back or finishes what it holds and exits cleanly.
+    terminated.signal(libc::SIGTERM);
+    let status = terminated.wait_exit(Duration::from_secs(30));
+    assert!(status.success(), "{}", terminated.log());
+    assert!(
+        terminated.log().contains("shutting down"),
+        "{}",
+        terminated.log()
+    );
+    finish(&mut coordinator);
+    assert!(steady.wait_exit(START).success());
+    drop((stopped, killed));
+    assert_same_library(&export(&db), expected);
+    assert_eq!(integrity(&db), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
+    let expected = reference();
+    let dir = temp_dir("service-restart");
+    let db = dir.join("restart.db");
+    let port = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    // Workers first: they wait for the coordinator by themselves.
+    let mut ws: Vec<Process> = (0..2)
+        .map(|i| worker(&dir, &url, &format!("early-{i}")))
+        .collect();
+    for w in &ws {
+        w.wait_for_line("retrying", |l| l.contains("retrying"), START);
+    }
+    for mark in ["generation 2/12", "generation 7/12"] {
+        let (coordinator, _) = serve(&dir, &db, port, "60");
+        coordinator.wait_for_line(mark, |l| l.contains(mark), FINISH);
+        coordinator.signal(libc::SIGKILL);
+        drop(coordinator);
+        assert_eq!(integrity(&db), "ok", "after a kill at {mark}");
+    }
+    let (mut coordinator, _) = serve(&dir, &db, port, "60");
+    finish(&mut coordinator);
+    for w in &mut ws {
+        assert!(w.wait_exit(START).success(), "{}", w.log());
+    }
+    assert_same_library(&export(&db), expected);
+    assert_eq!(integrity(&db), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
