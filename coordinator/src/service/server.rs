@@ -175,7 +175,6 @@ pub async fn serve(
             _ = &mut stop => break Ok(()),
             r = finished.wait_for(|f| *f), if !keep_serving => {
                 if r.is_ok() {
-                    tracing::info!("every run is finished");
                     break Ok(());
                 }
             }
@@ -220,6 +219,12 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
                     "{expired} leases expired; their candidates wait for another worker"
                 );
             }
+        }
+    }));
+    let mut finished = shared.finished.subscribe();
+    tasks.push(tokio::spawn(async move {
+        if finished.wait_for(|f| *f).await.is_ok() {
+            tracing::info!("every run is finished");
         }
     }));
     if let Some(period) = opts.progress_every {

@@ -1,0 +1,301 @@
+//! Bad callers get a clear gRPC error and change nothing: no secret or a wrong one, another
+//! protocol version, a NaN fitness, a candidate nobody leased them, another run's
+//! candidate. A raw client speaks the protocol here, as a broken or hostile worker would.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+use strider_common::rng::CandidateSeed;
+use strider_common::Genome;
+use strider_proto::convert::scheme_from_wire;
+use strider_proto::v1::{
+    self, client_service_client::ClientServiceClient, coordinator_message, worker_message,
+    worker_service_client::WorkerServiceClient, CoordinatorMessage, WorkerMessage,
+};
+use strider_tests::{binary, temp_dir, Process};
+use strider_worker::evaluate::{evaluate, EvalContext};
+use tokio::sync::mpsc;
+use tonic::transport::Channel;
+use tonic::{Code, Request, Status, Streaming};
+
+const FIXTURE: &str = "tests/fixtures/service.toml";
+const SECRET: &str = "refusals-secret-0123456789abcdef";
+
+fn authorised<T>(message: T) -> Request<T> {
+    let mut r = Request::new(message);
+    r.metadata_mut()
+        .insert("authorization", format!("Bearer {SECRET}").parse().unwrap());
+    r
+}
+
+fn hello(version: u32) -> WorkerMessage {
+    WorkerMessage {
+        kind: Some(worker_message::Kind::Hello(v1::Hello {
+            protocol_version: version,
+            worker_name: "raw test client".into(),
+            slots: 4,
+            build: strider_common::build_id(),
+        })),
+    }
+}
+
+/// A worker stream: what to send, what came back.
+struct Stream {
+    tx: mpsc::Sender<WorkerMessage>,
+    rx: Streaming<CoordinatorMessage>,
+}
+
+async fn open(channel: &Channel, first: WorkerMessage) -> Result<Stream, Status> {
+    let (tx, out) = mpsc::channel(16);
+    tx.send(first).await.unwrap();
+    let mut client = WorkerServiceClient::new(channel.clone());
+    let rx = client
+        .work(authorised(tokio_stream::wrappers::ReceiverStream::new(out)))
+        .await?
+        .into_inner();
+    Ok(Stream { tx, rx })
+}
+
+/// Opens a stream and reads the Welcome and the first assignment.
+async fn assigned(channel: &Channel) -> (Stream, v1::Assignment) {
+    let mut s = open(channel, hello(1)).await.unwrap();
+    let welcome = s.rx.message().await.unwrap().unwrap();
+    assert!(matches!(
+        welcome.kind,
+        Some(coordinator_message::Kind::Welcome(_))
+    ));
+    match s.rx.message().await.unwrap().unwrap().kind {
+        Some(coordinator_message::Kind::Assignment(a)) => (s, a),
+        other => panic!("expected an assignment, got {other:?}"),
+    }
+}
+
+/// Sends a result and returns the status that ends the stream.
+async fn refused(mut s: Stream, id: v1::CandidateId, outcome: v1::Outcome) -> Status {
+    let result = WorkerMessage {
+        kind: Some(worker_message::Kind::Result(v1::Result {
+            id: Some(id),
+            outcome: Some(outcome),
+            seconds: 0.1,
+        })),
+    };
+    s.tx.send(result).await.unwrap();
+    loop {
+        match s.rx.message().await {
+            Ok(Some(_)) => {} // further assignments
+            Ok(None) => panic!("the stream ended without an error"),
+            Err(status) => return status,
+        }
+    }
+}
+
+fn real_outcome(a: &v1::Assignment) -> v1::Outcome {
+    let e =
+        strider_common::Experiment::load(&strider_tests::workspace_root().join(FIXTURE)).unwrap();
+    let genome = Genome::try_from(a.genome.as_ref().unwrap()).unwrap();
+    let id = a.id.unwrap();
+    let o = evaluate(
+        &EvalContext::of(&e),
+        &genome,
+        scheme_from_wire(a.scheme).unwrap(),
+        CandidateSeed::new(a.run_seed, id.number),
+    );
+    (&o).into()
+}
+
+/// Results the database holds from workers (sqlite3, the tool a user would open it with):
+/// stored in the current step or applied (candidates settled without a trial have no
+/// statistics), and counted per worker.
+fn results_in(db: &Path) -> (i64, i64) {
+    let count = |sql: &str| -> i64 {
+        let out = Command::new("sqlite3")
+            .arg(db)
+            .arg(sql)
+            .output()
+            .expect("sqlite3 is installed (.ci/run installs it)");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).trim().parse().unwrap()
+    };
+    (
+        count("SELECT COUNT(*) FROM pending WHERE status = 'done' AND worker IS NOT NULL")
+            + count("SELECT COUNT(*) FROM candidates WHERE kind != 'rejected' OR outcome NOT LIKE '%\"stats\":null%'"),
+        count("SELECT COALESCE(SUM(results), 0) FROM workers"),
+    )
+}
+
+#[test]
+fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
+    let dir = temp_dir("refusals");
+    let secret = dir.join("secret");
+    std::fs::write(&secret, SECRET).unwrap();
+    let db = dir.join("refusals.db");
+    let mut cmd = Command::new(binary("strider-coordinator"));
+    cmd.args([
+        "serve",
+        "--db",
+        db.to_str().unwrap(),
+        "--experiment",
+        FIXTURE,
+    ])
+    .args([
+        "--listen",
+        "127.0.0.1:0",
+        "--token-file",
+        secret.to_str().unwrap(),
+    ]);
+    let coordinator = Process::spawn("coordinator", cmd);
+    let line = coordinator.wait_for_line(
+        "serving",
+        |l| l.contains("serving experiment"),
+        Duration::from_secs(60),
+    );
+    let url = line.rsplit(" on ").next().unwrap().trim().to_string();
+
+    tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let channel = Channel::from_shared(url.clone())
+            .unwrap()
+            .connect()
+            .await
+            .unwrap();
+
+        // Health answers without the secret (probes and load balancers have none).
+        let mut health = tonic_health::pb::health_client::HealthClient::new(channel.clone());
+        let h = health
+            .check(tonic_health::pb::HealthCheckRequest {
+                service: String::new(),
+            })
+            .await
+            .unwrap();
+        assert_eq!(h.into_inner().status, 1, "SERVING");
+
+        // No secret, or a wrong one.
+        let mut client = ClientServiceClient::new(channel.clone());
+        let s = client
+            .get_progress(v1::ProgressRequest {
+                protocol_version: 1,
+            })
+            .await
+            .unwrap_err();
+        assert_eq!(s.code(), Code::Unauthenticated);
+        assert!(s.message().contains("missing secret"), "{}", s.message());
+        let mut wrong = Request::new(v1::ProgressRequest {
+            protocol_version: 1,
+        });
+        wrong.metadata_mut().insert(
+            "authorization",
+            "Bearer refusals-secret-0123456789abcdeX".parse().unwrap(),
+        );
+        let s = client.get_progress(wrong).await.unwrap_err();
+        assert_eq!(s.code(), Code::Unauthenticated);
+        let (tx, out) = mpsc::channel(1);
+        tx.send(hello(1)).await.unwrap();
+        let s = WorkerServiceClient::new(channel.clone())
+            .work(tokio_stream::wrappers::ReceiverStream::new(out))
+            .await
+            .unwrap_err();
+        assert_eq!(s.code(), Code::Unauthenticated);
+
+        // Another protocol version: both versions named.
+        let s = match open(&channel, hello(2)).await {
+            Err(s) => s,
+            Ok(mut st) => st.rx.message().await.unwrap_err(),
+        };
+        assert_eq!(s.code(), Code::FailedPrecondition);
+        assert!(
+            s.message().contains("version 2") && s.message().contains("version 1"),
+            "{}",
+            s.message()
+        );
+        let s = client
+            .get_progress(authorised(v1::ProgressRequest {
+                protocol_version: 7,
+            }))
+            .await
+            .unwrap_err();
+        assert_eq!(s.code(), Code::FailedPrecondition);
+
+        // NaN fitness.
+        let (st, a) = assigned(&channel).await;
+        let mut nan = real_outcome(&a);
+        nan.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
+            fitness: f64::NAN,
+            stats: Some(v1::TrialStats::default()),
+            features: vec![0.0; 6],
+            cell: 0,
+        }));
+        let s = refused(st, a.id.unwrap(), nan).await;
+        assert_eq!(s.code(), Code::InvalidArgument);
+        assert!(s.message().contains("fitness"), "{}", s.message());
+
+        // A candidate nobody leased to this worker.
+        let (st, a) = assigned(&channel).await;
+        let mut unknown = a.id.unwrap();
+        unknown.number += 1_000_000;
+        let s = refused(st, unknown, real_outcome(&a)).await;
+        assert_eq!(s.code(), Code::FailedPrecondition);
+        assert!(
+            s.message().contains("not leased to this worker"),
+            "{}",
+            s.message()
+        );
+
+        // Another run's candidate (same number, the other run).
+        let (st, a) = assigned(&channel).await;
+        let mut foreign = a.id.unwrap();
+        foreign.run = 1 - foreign.run;
+        let s = refused(st, foreign, real_outcome(&a)).await;
+        assert_eq!(s.code(), Code::FailedPrecondition);
+
+        // A run that does not exist.
+        let (st, a) = assigned(&channel).await;
+        let mut missing = a.id.unwrap();
+        missing.run = 9;
+        let s = refused(st, missing, real_outcome(&a)).await;
+        assert_eq!(s.code(), Code::FailedPrecondition);
+
+        // Paging with a token the server never issued.
+        let s = client
+            .list_elites(authorised(v1::ListElitesRequest {
+                protocol_version: 1,
+                page_token: "bogus".into(),
+                ..Default::default()
+            }))
+            .await
+            .unwrap_err();
+        assert_eq!(s.code(), Code::InvalidArgument);
+        assert!(s.message().contains("page_token"), "{}", s.message());
+
+        // Control: a well-formed result is stored, so the checks below can see writes.
+        let (st, a) = assigned(&channel).await;
+        let good = WorkerMessage {
+            kind: Some(worker_message::Kind::Result(v1::Result {
+                id: a.id,
+                outcome: Some(real_outcome(&a)),
+                seconds: 0.1,
+            })),
+        };
+        st.tx.send(good).await.unwrap();
+        let deadline = Instant::now() + Duration::from_secs(60);
+        // The writer commits in milliseconds; poll the file until the result is there.
+        while results_in(&db).0 < 1 {
+            assert!(
+                Instant::now() < deadline,
+                "the good result never reached the database; coordinator log:\n{}",
+                coordinator.log()
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        drop(st);
+    });
+    // Exactly the one good result; none of the refused ones.
+    let (stored, _) = results_in(&db);
+    assert_eq!(stored, 1);
+    drop(coordinator);
+    let (_, counted) = results_in(&db);
+    assert_eq!(counted, 1, "the workers table counts one result in all");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
