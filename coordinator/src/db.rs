@@ -8,6 +8,7 @@ use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
 use sqlx::Row;
+use std::collections::HashMap;
 use std::path::Path;
 use std::str::FromStr;
 use strider_common::experiment::RunSpec;
@@ -105,56 +106,59 @@ pub struct StepCommit {
     pub completed: Option<(u32, GenerationStats)>,
 }
 
+impl StepCommit {
+    /// Whether the initial population is complete after this step.
+    pub fn initial_population_done(&self) -> bool {
+        self.position.generation > 0 || matches!(self.completed, Some((0, _)))
+    }
+
+    /// Whether this step removes a candidate's row from `pending`: applied candidates
+    /// leave the step, and so do the initial population's spare draws once it is complete.
+    pub fn clears(&self, number: CandidateNumber, generation: u32) -> bool {
+        number.0 < self.position.next_candidate
+            || (generation == 0 && self.initial_population_done())
+    }
+}
+
 /// One change to the database. The writer task commits them in order, in groups.
+///
+/// Only what a restart needs is written while a step is open: results, and leases lost to
+/// dead or silent workers (so attempts survive a restart). Waiting and leased candidates
+/// live in memory: they are redrawn or rebred, identically, after a restart.
 // Writes live for milliseconds on their way to the writer; boxing genomes would cost an
 // allocation each for nothing.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Write {
-    /// A candidate joined its run's current step (with its outcome when the coordinator
-    /// settled it without a trial).
-    Created {
-        /// Run id.
-        run: i64,
-        /// Candidate number.
-        number: CandidateNumber,
-        /// Its generation.
-        generation: u32,
-        /// Its genome.
-        genome: Genome,
-        /// Its outcome, when already known.
-        outcome: Option<Outcome>,
-    },
-    /// A candidate was leased to a worker.
-    Leased {
-        /// Run id.
-        run: i64,
-        /// Candidate number.
-        number: CandidateNumber,
-        /// Worker session.
-        worker: u64,
-    },
-    /// A lease ended without a result; the candidate waits again.
-    Returned {
-        /// Run id.
-        run: i64,
-        /// Candidate number.
-        number: CandidateNumber,
-        /// Leases lost so far.
-        attempts: u32,
-    },
     /// A candidate's result came in (or it failed for good).
     Resolved {
         /// Run id.
         run: i64,
         /// Candidate number.
         number: CandidateNumber,
+        /// Its generation.
+        generation: u32,
+        /// Leases it lost before.
+        attempts: u32,
         /// Its outcome.
         outcome: Outcome,
         /// Worker session that sent it (none when it failed).
         worker: Option<u64>,
         /// Wall time the evaluation took.
         seconds: f64,
+    },
+    /// A lease was lost (worker died, hung or disconnected); the candidate waits again.
+    LeaseLost {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Its generation.
+        generation: u32,
+        /// Leases it has lost so far.
+        attempts: u32,
+        /// The worker session that lost it.
+        worker: u64,
     },
     /// A step was applied to the library.
     Step(Box<StepCommit>),
@@ -187,6 +191,8 @@ pub struct StoredPending {
     pub run: i64,
     /// Candidate number.
     pub number: CandidateNumber,
+    /// Its generation.
+    pub generation: u32,
     /// Leases lost so far.
     pub attempts: u32,
     /// Its outcome, once done (or failed).
@@ -246,9 +252,20 @@ impl Db {
                 source: e,
             })?
             .create_if_missing(create)
+            // Candidate rows are about 2 KB: 4 KB pages held one each and wasted the rest.
+            // (Takes effect when the file is created.)
+            .page_size(16384)
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Full)
-            .foreign_keys(true);
+            .foreign_keys(true)
+            // A group commit touches many pages: a cache that holds them all spares
+            // SQLite spilling and rereading them mid-transaction; statement journals
+            // (multi-row upserts) need no file.
+            .pragma("cache_size", "-65536")
+            .pragma("temp_store", "MEMORY")
+            // Checkpoints run beside the writer (`Db::checkpoint`, the writer task's
+            // checkpointer), not inside its commits, where they took a fifth of its time.
+            .pragma("wal_autocheckpoint", "0");
         // One writer (the writer task, or `run`'s loop) and a few readers (client calls):
         // WAL lets them read while it writes.
         let pool = SqlitePoolOptions::new()
@@ -341,8 +358,31 @@ impl Db {
     /// Applies a group of writes in one transaction (the writer task's group commit).
     pub async fn write(&self, writes: &[Write]) -> Result<(), DbError> {
         let mut tx = self.pool.begin().await?;
-        for w in writes {
-            write_one(&mut tx, w).await?;
+        // A pending row that a later step of the same group deletes again need not be
+        // written: the transaction ends the same. When the writer is behind, most are.
+        let needed = rows_outliving_the_group(writes);
+        let mut rows: Vec<&Write> = Vec::new();
+        // In order; consecutive writes to the pending table go in one statement (a
+        // statement costs far more than a row).
+        for (w, needed) in writes.iter().zip(needed) {
+            if is_pending_row(w) {
+                if needed {
+                    rows.push(w);
+                }
+                if rows.len() == PENDING_ROWS_PER_STATEMENT {
+                    write_pending_rows(&mut tx, &rows).await?;
+                    rows.clear();
+                }
+            } else {
+                if !rows.is_empty() {
+                    write_pending_rows(&mut tx, &rows).await?;
+                    rows.clear();
+                }
+                write_one(&mut tx, w).await?;
+            }
+        }
+        if !rows.is_empty() {
+            write_pending_rows(&mut tx, &rows).await?;
         }
         tx.commit().await?;
         Ok(())
@@ -351,7 +391,7 @@ impl Db {
     /// Every stored candidate of the runs' current steps.
     pub async fn pending(&self) -> Result<Vec<StoredPending>, DbError> {
         let rows = sqlx::query(
-            "SELECT run_id, number, attempts, outcome FROM pending ORDER BY run_id, number",
+            "SELECT run_id, number, attempts, outcome, generation FROM pending ORDER BY run_id, number",
         )
         .fetch_all(&self.pool)
         .await?;
@@ -362,6 +402,7 @@ impl Db {
                     run: r.get(0),
                     number: CandidateNumber(r.get::<i64, _>(1) as u64),
                     attempts: r.get::<i64, _>(2) as u32,
+                    generation: r.get::<i64, _>(4) as u32,
                     outcome: outcome
                         .map(|o| serde_json::from_str(&o))
                         .transpose()
@@ -452,6 +493,21 @@ impl Db {
             .collect())
     }
 
+    /// Copies committed pages from the write-ahead log into the database file without
+    /// waiting for the writer (`truncate`: wait for it and empty the log, for a clean
+    /// shutdown). Returns the pages still to copy, or None when the log is busy.
+    pub async fn checkpoint(&self, truncate: bool) -> Result<Option<i64>, DbError> {
+        let row = sqlx::query(if truncate {
+            "PRAGMA wal_checkpoint(TRUNCATE)"
+        } else {
+            "PRAGMA wal_checkpoint(PASSIVE)"
+        })
+        .fetch_one(&self.pool)
+        .await?;
+        let (busy, log, copied): (i64, i64, i64) = (row.get(0), row.get(1), row.get(2));
+        Ok((busy == 0).then_some(log - copied))
+    }
+
     /// `PRAGMA integrity_check`: "ok" for a sound file.
     pub async fn integrity_check(&self) -> Result<String, DbError> {
         Ok(sqlx::query("PRAGMA integrity_check")
@@ -461,52 +517,61 @@ impl Db {
     }
 }
 
-async fn write_one(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>, w: &Write) -> Result<(), DbError> {
-    match w {
-        Write::Created {
-            run,
-            number,
-            generation,
-            genome,
-            outcome,
-        } => {
-            sqlx::query("INSERT INTO pending (run_id, number, generation, genome, status, outcome) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (run_id, number) DO NOTHING")
-                .bind(run)
-                .bind(number.0 as i64)
-                .bind(i64::from(*generation))
-                .bind(serde_json::to_string(genome).expect("genomes serialise"))
-                .bind(if outcome.is_some() { "done" } else { "waiting" })
-                .bind(outcome.as_ref().map(|o| serde_json::to_string(o).expect("outcomes serialise")))
-                .execute(&mut **tx)
-                .await?;
+/// Rows per multi-row statement (8 parameters each; SQLite allows 32,766).
+const PENDING_ROWS_PER_STATEMENT: usize = 1000;
+
+fn is_pending_row(w: &Write) -> bool {
+    matches!(w, Write::Resolved { .. } | Write::LeaseLost { .. })
+}
+
+/// For each write, whether it must be written: false for a pending row that a later step
+/// of its run in the same group removes from `pending` again.
+pub fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
+    // A run's steps only ever widen what they clear, so its last step in the group
+    // decides for every row before it.
+    let mut last_step: HashMap<i64, &StepCommit> = HashMap::new();
+    let mut needed = vec![true; writes.len()];
+    for (i, w) in writes.iter().enumerate().rev() {
+        match w {
+            Write::Step(step) => {
+                last_step.entry(step.run).or_insert(step);
+            }
+            Write::Resolved {
+                run,
+                number,
+                generation,
+                ..
+            }
+            | Write::LeaseLost {
+                run,
+                number,
+                generation,
+                ..
+            } => {
+                if let Some(step) = last_step.get(run) {
+                    needed[i] = !step.clears(*number, *generation);
+                }
+            }
+            _ => {}
         }
-        Write::Leased {
-            run,
-            number,
-            worker,
-        } => {
-            sqlx::query("UPDATE pending SET status = 'leased', worker = ? WHERE run_id = ? AND number = ? AND status IN ('waiting', 'leased')")
-                .bind(*worker as i64)
-                .bind(run)
-                .bind(number.0 as i64)
-                .execute(&mut **tx)
-                .await?;
-        }
-        Write::Returned {
-            run,
-            number,
-            attempts,
-        } => {
-            sqlx::query("UPDATE pending SET status = 'waiting', worker = NULL, attempts = ? WHERE run_id = ? AND number = ? AND status = 'leased'")
-                .bind(i64::from(*attempts))
-                .bind(run)
-                .bind(number.0 as i64)
-                .execute(&mut **tx)
-                .await?;
-        }
+    }
+    needed
+}
+
+/// Upserts pending rows (results and lost leases) in one statement.
+async fn write_pending_rows(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    writes: &[&Write],
+) -> Result<(), DbError> {
+    let mut q = sqlx::QueryBuilder::new(
+        "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds) ",
+    );
+    q.push_values(writes, |mut b, w| match *w {
         Write::Resolved {
             run,
             number,
+            generation,
+            attempts,
             outcome,
             worker,
             seconds,
@@ -518,22 +583,45 @@ async fn write_one(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>, w: &Write) -> R
                     ..
                 }
             );
-            sqlx::query("UPDATE pending SET status = ?, worker = ?, outcome = ?, seconds = ? WHERE run_id = ? AND number = ?")
-                .bind(if failed { "failed" } else { "done" })
-                .bind(worker.map(|w| w as i64))
-                .bind(serde_json::to_string(outcome).expect("outcomes serialise"))
-                .bind(seconds)
-                .bind(run)
-                .bind(number.0 as i64)
-                .execute(&mut **tx)
-                .await?;
-            if let Some(w) = worker {
-                sqlx::query("UPDATE workers SET results = results + 1 WHERE id = ?")
-                    .bind(*w as i64)
-                    .execute(&mut **tx)
-                    .await?;
-            }
+            b.push_bind(*run)
+                .push_bind(number.0 as i64)
+                .push_bind(i64::from(*generation))
+                .push_bind(if failed { "failed" } else { "done" })
+                .push_bind(i64::from(*attempts))
+                .push_bind(worker.map(|w| w as i64))
+                .push_bind(serde_json::to_string(outcome).expect("outcomes serialise"))
+                .push_bind(*seconds);
         }
+        Write::LeaseLost {
+            run,
+            number,
+            generation,
+            attempts,
+            worker,
+        } => {
+            b.push_bind(*run)
+                .push_bind(number.0 as i64)
+                .push_bind(i64::from(*generation))
+                .push_bind("waiting")
+                .push_bind(i64::from(*attempts))
+                .push_bind(Some(*worker as i64))
+                .push_bind(None::<String>)
+                .push_bind(None::<f64>);
+        }
+        _ => unreachable!("only pending rows are batched"),
+    });
+    q.push(
+        " ON CONFLICT (run_id, number) DO UPDATE SET generation = excluded.generation, \
+         status = excluded.status, attempts = excluded.attempts, worker = excluded.worker, \
+         outcome = excluded.outcome, seconds = excluded.seconds",
+    );
+    q.build().execute(&mut **tx).await?;
+    Ok(())
+}
+
+async fn write_one(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>, w: &Write) -> Result<(), DbError> {
+    match w {
+        Write::Resolved { .. } | Write::LeaseLost { .. } => write_pending_rows(tx, &[w]).await?,
         Write::Step(step) => write_step(tx, step).await?,
         Write::WorkerJoined {
             id,
@@ -570,33 +658,38 @@ async fn write_step(
     step: &StepCommit,
 ) -> Result<(), DbError> {
     let run = step.run;
-    for c in &step.candidates {
-        let (fitness, cell) = match &c.outcome {
-            Outcome::Valid { fitness, cell, .. } => (Some(*fitness), Some(i64::from(cell.0))),
-            _ => (None, None),
-        };
-        sqlx::query("INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
-            .bind(run)
-            .bind(c.number.0 as i64)
-            .bind(i64::from(c.generation))
-            .bind(serde_json::to_string(&c.genome).expect("genomes serialise"))
-            .bind(serde_json::to_string(&c.outcome).expect("outcomes serialise"))
-            .bind(c.outcome.kind())
-            .bind(fitness)
-            .bind(cell)
-            .bind(placement_name(c.placement))
-            .execute(&mut **tx)
-            .await?;
+    for chunk in step.candidates.chunks(1000) {
+        let mut q = sqlx::QueryBuilder::new(
+            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) ",
+        );
+        q.push_values(chunk, |mut b, c| {
+            let (fitness, cell) = match &c.outcome {
+                Outcome::Valid { fitness, cell, .. } => (Some(*fitness), Some(i64::from(cell.0))),
+                _ => (None, None),
+            };
+            b.push_bind(run)
+                .push_bind(c.number.0 as i64)
+                .push_bind(i64::from(c.generation))
+                .push_bind(serde_json::to_string(&c.genome).expect("genomes serialise"))
+                .push_bind(serde_json::to_string(&c.outcome).expect("outcomes serialise"))
+                .push_bind(c.outcome.kind())
+                .push_bind(fitness)
+                .push_bind(cell)
+                .push_bind(placement_name(c.placement));
+        });
+        q.build().execute(&mut **tx).await?;
     }
-    for (cell, elite) in &step.elites {
-        sqlx::query("INSERT INTO elites (run_id, cell, candidate, fitness, genome) VALUES (?, ?, ?, ?, ?) ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness, genome = excluded.genome")
-            .bind(run)
-            .bind(i64::from(cell.0))
-            .bind(elite.candidate.0 as i64)
-            .bind(elite.fitness)
-            .bind(serde_json::to_string(&elite.genome).expect("genomes serialise"))
-            .execute(&mut **tx)
-            .await?;
+    for chunk in step.elites.chunks(1000) {
+        let mut q =
+            sqlx::QueryBuilder::new("INSERT INTO cells (run_id, cell, candidate, fitness) ");
+        q.push_values(chunk, |mut b, (cell, elite)| {
+            b.push_bind(run)
+                .push_bind(i64::from(cell.0))
+                .push_bind(elite.candidate.0 as i64)
+                .push_bind(elite.fitness);
+        });
+        q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness");
+        q.build().execute(&mut **tx).await?;
     }
     if let Some((generation, mut stats)) = step.completed {
         if generation == 0 {
@@ -636,12 +729,11 @@ async fn write_step(
             .await?;
     }
     let p = step.position;
-    // Applied candidates leave the step; so do the initial population's spare draws once
-    // it is complete.
+    // What `StepCommit::clears` says.
     sqlx::query("DELETE FROM pending WHERE run_id = ? AND (number < ? OR (generation = 0 AND ?))")
         .bind(run)
         .bind(p.next_candidate as i64)
-        .bind(p.generation > 0 || matches!(step.completed, Some((0, _))))
+        .bind(step.initial_population_done())
         .execute(&mut **tx)
         .await?;
     sqlx::query("UPDATE runs SET generation = ?, initial_passed = ?, next_candidate = ?, finished = ? WHERE id = ?")
@@ -696,4 +788,62 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
 
 fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".into(), |v| v.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lost(run: i64, number: u64, generation: u32) -> Write {
+        Write::LeaseLost {
+            run,
+            number: CandidateNumber(number),
+            generation,
+            attempts: 1,
+            worker: 7,
+        }
+    }
+
+    fn step(run: i64, generation: u32, next_candidate: u64) -> Write {
+        Write::Step(Box::new(StepCommit {
+            run,
+            position: RunPosition {
+                generation,
+                initial_passed: 400,
+                next_candidate,
+                finished: false,
+            },
+            candidates: Vec::new(),
+            elites: Vec::new(),
+            completed: None,
+        }))
+    }
+
+    #[test]
+    fn only_rows_a_later_step_of_their_run_clears_are_skipped() {
+        let writes = [
+            lost(0, 10, 3), // cleared by run 0's later step (next 20)
+            lost(1, 10, 3), // run 1 has no step in the group
+            lost(0, 25, 3), // beyond the step's next candidate
+            lost(0, 2, 0),  // a spare initial draw: the initial population is done
+            step(0, 3, 20),
+            lost(0, 12, 3), // after the step: written (cannot happen, but must be kept)
+            Write::WorkerLeft {
+                id: 7,
+                results: 0,
+                reason: String::new(),
+            },
+        ];
+        assert_eq!(
+            rows_outliving_the_group(&writes),
+            [false, true, true, false, true, true, true]
+        );
+    }
+
+    #[test]
+    fn spare_initial_draws_stay_while_the_initial_population_is_open() {
+        // Generation 0, not completed: a step clears only applied numbers.
+        let writes = [lost(0, 30, 0), lost(0, 5, 0), step(0, 0, 10)];
+        assert_eq!(rows_outliving_the_group(&writes), [true, false, true]);
+    }
 }

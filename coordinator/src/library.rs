@@ -78,6 +78,8 @@ impl GenerationStats {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Library {
     cells: BTreeMap<CellIndex, Elite>,
+    /// The occupied cells in order, so that drawing the i-th parent is O(log n), not O(n).
+    order: Vec<CellIndex>,
 }
 
 impl Library {
@@ -108,12 +110,19 @@ impl Library {
 
     /// The elite at a position in cell order.
     pub fn nth(&self, i: usize) -> Option<&Elite> {
-        self.cells.values().nth(i)
+        self.order.get(i).and_then(|c| self.cells.get(c))
     }
 
     /// Puts an elite back into its cell (when a library is reloaded from the database).
     pub fn restore(&mut self, cell: CellIndex, elite: Elite) {
-        self.cells.insert(cell, elite);
+        if self.cells.insert(cell, elite).is_none() {
+            self.occupy(cell);
+        }
+    }
+
+    fn occupy(&mut self, cell: CellIndex) {
+        let at = self.order.partition_point(|c| *c < cell);
+        self.order.insert(at, cell);
     }
 
     /// Applies one result: a valid design fills an empty cell or replaces a strictly less
@@ -145,6 +154,7 @@ impl Library {
         match self.cells.get_mut(&cell) {
             None => {
                 self.cells.insert(cell, elite);
+                self.occupy(cell);
                 Placement::New
             }
             Some(old) if fitness > old.fitness => {

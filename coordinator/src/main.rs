@@ -82,6 +82,14 @@ enum Command {
         /// Keep serving clients after every run is finished (until SIGTERM).
         #[arg(long)]
         keep_serving: bool,
+        /// Serve Prometheus metrics on this address (GET /metrics; no secret, aggregate
+        /// numbers only).
+        #[arg(long)]
+        metrics: Option<SocketAddr>,
+        /// Stop handing out candidates after this many seconds and exit once every lease
+        /// is back (set it below a batch job's time limit by the longest trial).
+        #[arg(long)]
+        stop_leasing_after: Option<f64>,
     },
     /// Print the progress of every run of a running coordinator.
     Status {
@@ -197,6 +205,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             max_attempts,
             progress_every,
             keep_serving,
+            metrics,
+            stop_leasing_after,
         } => {
             init_logs();
             let secret = Secret::load(token_file.as_deref())?;
@@ -209,6 +219,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 progress_every: Some(seconds("progress-every", progress_every)?),
                 keep_serving,
                 address_file,
+                metrics,
+                stop_leasing_after: stop_leasing_after
+                    .map(|s| seconds("stop-leasing-after", s))
+                    .transpose()?,
             };
             runtime()?.block_on(async {
                 let (db, experiment) = open_or_create(experiment.as_deref(), &db, false).await?;

@@ -147,12 +147,14 @@ pub struct Scheduler {
     runs: Vec<RunState>,
     /// Results (and lost leases) read back from the database, used when the candidate is
     /// drawn again after a restart.
-    stored: HashMap<(i64, u64), StoredPending>,
+    stored: HashMap<(i64, u64, u32), StoredPending>,
     lease: Duration,
     max_attempts: u32,
     cursor: usize,
     writes: Vec<Write>,
     steps_applied: u64,
+    /// False once told to stop leasing (a batch job's time limit nears).
+    leasing: bool,
 }
 
 impl Scheduler {
@@ -179,13 +181,14 @@ impl Scheduler {
                 .collect(),
             stored: stored
                 .into_iter()
-                .map(|p| ((p.run, p.number.0), p))
+                .map(|p| ((p.run, p.number.0, p.generation), p))
                 .collect(),
             lease,
             max_attempts,
             cursor: 0,
             writes: Vec::new(),
             steps_applied: 0,
+            leasing: true,
         };
         for i in 0..s.runs.len() {
             if !s.runs[i].record.finished && !s.initial_phase(i) {
@@ -211,8 +214,26 @@ impl Scheduler {
         self.runs.iter().all(|r| r.record.finished)
     }
 
+    /// Hands out no more candidates from now on: results of leases out still count, and a
+    /// restart on the database goes on from there.
+    pub fn stop_leasing(&mut self) {
+        self.leasing = false;
+    }
+
+    /// Candidates leased to workers now.
+    pub fn leased(&self) -> usize {
+        self.runs
+            .iter()
+            .flat_map(|r| r.step.values())
+            .filter(|p| matches!(p.state, State::Leased { .. }))
+            .count()
+    }
+
     /// Whether a lease request could get a candidate now.
     pub fn available(&self) -> bool {
+        if !self.leasing {
+            return false;
+        }
         let window = |r: &RunState| r.frontier - r.record.next_candidate < INITIAL_WINDOW;
         self.runs.iter().any(|r| {
             !r.record.finished
@@ -236,6 +257,9 @@ impl Scheduler {
     /// advances.
     pub fn lease(&mut self, worker: WorkerId, now: Instant, max: usize) -> Vec<Assignment> {
         let mut out = Vec::new();
+        if !self.leasing {
+            return out;
+        }
         let n = self.runs.len();
         let mut idle = 0;
         while out.len() < max && idle < n {
@@ -273,11 +297,6 @@ impl Scheduler {
             generation: p.generation,
             number: CandidateNumber(number),
         };
-        self.writes.push(Write::Leased {
-            run: r.record.id,
-            number: key.number,
-            worker: worker.0,
-        });
         Some(Assignment {
             key,
             genome: p.genome,
@@ -308,6 +327,8 @@ impl Scheduler {
                 self.writes.push(Write::Resolved {
                     run: r.record.id,
                     number: key.number,
+                    generation: p.generation,
+                    attempts: p.attempts,
                     outcome,
                     worker: Some(worker.0),
                     seconds,
@@ -421,6 +442,8 @@ impl Scheduler {
                 self.writes.push(Write::Resolved {
                     run,
                     number: key.number,
+                    generation: p.generation,
+                    attempts: p.attempts,
                     outcome,
                     worker: None,
                     seconds: 0.0,
@@ -431,11 +454,15 @@ impl Scheduler {
         }
         p.state = State::Waiting;
         r.waiting.insert(key.number.0);
-        self.writes.push(Write::Returned {
-            run,
-            number: key.number,
-            attempts: p.attempts,
-        });
+        if lost.is_some() {
+            self.writes.push(Write::LeaseLost {
+                run,
+                number: key.number,
+                generation: p.generation,
+                attempts: p.attempts,
+                worker: worker.0,
+            });
+        }
     }
 
     fn pending_mut(&mut self, key: CandidateKey) -> Option<&mut Pending> {
@@ -492,22 +519,17 @@ impl Scheduler {
     fn add(&mut self, i: usize, number: u64, generation: u32, genome: Genome) {
         let run = self.runs[i].record.id;
         let scheme = self.runs[i].record.spec.scheme;
-        let (attempts, state) = match self.stored.remove(&(run, number)) {
+        let (attempts, state) = match self.stored.remove(&(run, number, generation)) {
             Some(stored) => (
                 stored.attempts,
                 stored.outcome.map_or(State::Waiting, State::Resolved),
             ),
-            None => {
-                let outcome = precheck(&self.ctx, &genome, scheme);
-                self.writes.push(Write::Created {
-                    run,
-                    number: CandidateNumber(number),
-                    generation,
-                    genome,
-                    outcome: outcome.clone(),
-                });
-                (0, outcome.map_or(State::Waiting, State::Resolved))
-            }
+            // Settled without a trial, or waiting: nothing to store until it is applied
+            // (a restart redraws it identically).
+            None => (
+                0,
+                precheck(&self.ctx, &genome, scheme).map_or(State::Waiting, State::Resolved),
+            ),
         };
         let r = &mut self.runs[i];
         if state == State::Waiting {

@@ -15,9 +15,15 @@ const SECRET: &str = "test-secret-0123456789abcdef";
 const START: Duration = Duration::from_secs(60);
 const FINISH: Duration = Duration::from_secs(300);
 
+/// The secret file of a test directory, written once: rewriting it while a process
+/// started earlier reads it would hand that process an empty secret.
 fn secret_file(dir: &Path) -> PathBuf {
     let f = dir.join("secret");
-    std::fs::write(&f, format!("{SECRET}\n")).unwrap();
+    if !f.exists() {
+        let tmp = dir.join("secret.tmp");
+        std::fs::write(&tmp, format!("{SECRET}\n")).unwrap();
+        std::fs::rename(&tmp, &f).unwrap();
+    }
     f
 }
 
@@ -52,6 +58,10 @@ fn reference() -> &'static serde_json::Value {
 /// Starts `serve` on 127.0.0.1:`port` (0: any) and waits until it listens; returns it
 /// with the URL workers use.
 fn serve(dir: &Path, db: &Path, port: u16, lease: &str) -> (Process, String) {
+    serve_with(dir, db, port, lease, &[])
+}
+
+fn serve_with(dir: &Path, db: &Path, port: u16, lease: &str, extra: &[&str]) -> (Process, String) {
     let mut cmd = Command::new(binary("strider-coordinator"));
     cmd.args([
         "serve",
@@ -62,7 +72,8 @@ fn serve(dir: &Path, db: &Path, port: u16, lease: &str) -> (Process, String) {
     ])
     .args(["--listen", &format!("127.0.0.1:{port}")])
     .args(["--token-file", secret_file(dir).to_str().unwrap()])
-    .args(["--lease-seconds", lease, "--progress-every", "0.1"]);
+    .args(["--lease-seconds", lease, "--progress-every", "0.1"])
+    .args(extra);
     let p = Process::spawn("coordinator", cmd);
     let line = p.wait_for_line(
         "saying it serves",
@@ -200,5 +211,88 @@ fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
     }
     assert_same_library(&export(&db), expected);
     assert_eq!(integrity(&db), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `GET path` over plain HTTP; the whole response.
+fn http_get(addr: &str, path: &str) -> String {
+    use std::io::{Read, Write};
+    let mut c = std::net::TcpStream::connect(addr).unwrap();
+    c.set_read_timeout(Some(START)).unwrap();
+    write!(c, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut out = String::new();
+    c.read_to_string(&mut out).unwrap();
+    out
+}
+
+#[test]
+fn a_coordinator_out_of_time_stops_leasing_exits_cleanly_and_the_next_one_finishes_the_run() {
+    let expected = reference();
+    let dir = temp_dir("service-out-of-time");
+    let db = dir.join("batch.db");
+    let (mut coordinator, url) = serve_with(
+        &dir,
+        &db,
+        0,
+        "60",
+        &["--stop-leasing-after", "1", "--metrics", "127.0.0.1:0"],
+    );
+    let metrics = coordinator
+        .wait_for_line(
+            "naming the metrics address",
+            |l| l.contains("metrics on"),
+            START,
+        )
+        .rsplit("http://")
+        .next()
+        .unwrap()
+        .trim_end_matches("/metrics")
+        .trim()
+        .to_string();
+    // The worker is stopped holding its candidates, so the run cannot end by itself.
+    let worker1 = worker(&dir, &url, "first-job");
+    coordinator.wait_for_line("for the worker", |l| l.contains("worker connected"), START);
+    worker1.signal(libc::SIGSTOP);
+    coordinator.wait_for_line(
+        "that it stopped leasing",
+        |l| l.contains("stopped leasing"),
+        START,
+    );
+    // Prometheus sees every run (the coordinator waits for the stopped worker's leases).
+    let page = http_get(&metrics, "/metrics");
+    assert!(page.starts_with("HTTP/1.1 200 OK"), "{page}");
+    for run in 0..2 {
+        let sample =
+            format!("strider_run_generation{{run=\"{run}\",scheme=\"static\",repeat=\"{run}\"}} ");
+        assert!(page.contains(&sample), "no {sample:?} in\n{page}");
+    }
+    assert!(
+        page.contains("# TYPE strider_results_total counter"),
+        "{page}"
+    );
+    assert!(page.contains("strider_workers_connected 1"), "{page}");
+    assert!(http_get(&metrics, "/other").starts_with("HTTP/1.1 404"));
+    // The worker wakes and hands in what it held; then the coordinator exits by itself.
+    worker1.signal(libc::SIGCONT);
+    let status = coordinator.wait_exit(FINISH);
+    assert!(status.success(), "{}", coordinator.log());
+    assert!(
+        coordinator.log().contains("every lease is back"),
+        "{}",
+        coordinator.log()
+    );
+    drop(worker1);
+    let unfinished = tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let runs = Db::open(&db, false).await.unwrap().runs().await.unwrap();
+        runs.iter().filter(|r| !r.finished).count()
+    });
+    assert!(unfinished > 0, "the first job should have been cut short");
+    assert_eq!(integrity(&db), "ok");
+    // The next job resumes from the database and ends where one uninterrupted run does.
+    let (mut coordinator, url) = serve(&dir, &db, 0, "60");
+    let mut worker2 = worker(&dir, &url, "second-job");
+    finish(&mut coordinator);
+    assert!(worker2.wait_exit(START).success(), "{}", worker2.log());
+    assert_same_library(&export(&db), expected);
     std::fs::remove_dir_all(&dir).unwrap();
 }

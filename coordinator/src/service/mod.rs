@@ -5,6 +5,7 @@
 pub mod auth;
 pub mod client_api;
 pub mod local;
+pub mod metrics;
 pub mod server;
 pub mod worker_api;
 pub mod writer;
@@ -21,6 +22,7 @@ use writer::WriterMessage;
 #[derive(Default)]
 pub struct Throughput {
     buckets: VecDeque<(u64, u64)>,
+    total: u64,
 }
 
 impl Throughput {
@@ -28,6 +30,7 @@ impl Throughput {
 
     /// Counts one result at `second` (seconds since start).
     pub fn record(&mut self, second: u64) {
+        self.total += 1;
         match self.buckets.back_mut() {
             Some((s, n)) if *s == second => *n += 1,
             _ => self.buckets.push_back((second, 1)),
@@ -96,6 +99,14 @@ impl Shared {
             self.work.notify_waiters();
         }
         out
+    }
+
+    /// Results accepted since the service started.
+    pub fn results_total(&self) -> u64 {
+        self.throughput
+            .lock()
+            .expect("no panic while counting")
+            .total
     }
 
     /// Seconds since the service started.

@@ -5,6 +5,7 @@
 
 use super::auth::Secret;
 use super::client_api::{progress, ClientApi};
+use super::metrics::serve_metrics;
 use super::worker_api::WorkerApi;
 use super::writer::{run_writer, WriterMessage};
 use super::{Shared, Throughput};
@@ -38,6 +39,11 @@ pub struct ServeOptions {
     pub keep_serving: bool,
     /// Write the URL workers should use here once listening (atomically).
     pub address_file: Option<PathBuf>,
+    /// Serve Prometheus metrics on this address (`GET /metrics`).
+    pub metrics: Option<SocketAddr>,
+    /// Stop handing out candidates this long after starting, and exit once every lease
+    /// out has come back (for batch jobs with a time limit; serve again to go on).
+    pub stop_leasing_after: Option<Duration>,
 }
 
 impl Default for ServeOptions {
@@ -48,6 +54,8 @@ impl Default for ServeOptions {
             progress_every: Some(Duration::from_secs(10)),
             keep_serving: false,
             address_file: None,
+            metrics: None,
+            stop_leasing_after: None,
         }
     }
 }
@@ -135,7 +143,22 @@ pub async fn serve(
     })
     .max_decoding_message_size(MAX_MESSAGE_BYTES);
 
-    let tasks = background(shared.clone(), &opts);
+    let mut tasks = background(shared.clone(), &opts);
+    if let Some(addr) = opts.metrics {
+        let listener = tokio::net::TcpListener::bind(addr)
+            .await
+            .map_err(|e| anyhow::anyhow!("metrics endpoint on {addr}: {e}"))?;
+        tracing::info!("metrics on http://{}/metrics", listener.local_addr()?);
+        tasks.push(tokio::spawn(serve_metrics(listener, shared.clone())));
+    }
+    let (out_of_time_tx, mut out_of_time) = oneshot::channel::<()>();
+    if let Some(after) = opts.stop_leasing_after {
+        tasks.push(tokio::spawn(stop_leasing(
+            shared.clone(),
+            after,
+            out_of_time_tx,
+        )));
+    }
     let mut finished = shared.finished.subscribe();
     let keep_serving = opts.keep_serving;
     let (server_stop_tx, server_stop_rx) = oneshot::channel::<()>();
@@ -173,6 +196,9 @@ pub async fn serve(
                 Err(e) => Err(anyhow::anyhow!("the database writer panicked: {e}")),
             },
             _ = &mut stop => break Ok(()),
+            r = &mut out_of_time => if r.is_ok() {
+                break Ok(());
+            },
             r = finished.wait_for(|f| *f), if !keep_serving => {
                 if r.is_ok() {
                     break Ok(());
@@ -202,6 +228,26 @@ pub async fn serve(
         eprintln!("{}", progress_line(&shared));
     }
     Ok(())
+}
+
+/// Stops leasing after `after`, then says so on `done` once no lease is out.
+async fn stop_leasing(shared: Arc<Shared>, after: Duration, done: oneshot::Sender<()>) {
+    tokio::time::sleep(after).await;
+    let leased = shared.with(false, |s| {
+        s.stop_leasing();
+        s.leased()
+    });
+    tracing::warn!(
+        "stopped leasing after {:.0} s (--stop-leasing-after); waiting for {leased} leased candidates",
+        after.as_secs_f64()
+    );
+    let mut every = tokio::time::interval(Duration::from_millis(200));
+    // Results, releases and expiries bring the count down; a lease ends one way or another.
+    while shared.with(false, |s| s.leased()) > 0 {
+        every.tick().await;
+    }
+    tracing::info!("every lease is back; stopping (serve again on this database to go on)");
+    let _ = done.send(());
 }
 
 /// Lease expiry and the progress line.

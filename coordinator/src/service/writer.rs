@@ -22,6 +22,33 @@ pub async fn run_writer(
     db: Db,
     mut rx: mpsc::UnboundedReceiver<WriterMessage>,
 ) -> Result<(), DbError> {
+    let checkpointer = tokio::spawn(checkpoint_continually(db.clone()));
+    let result = write_groups(&db, &mut rx).await;
+    checkpointer.abort();
+    result?;
+    // Leave a tidy file: everything in the database, an empty log.
+    db.checkpoint(true).await?;
+    Ok(())
+}
+
+/// Pause between checkpoints.
+const CHECKPOINT_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// Keeps the write-ahead log short: copies committed pages into the database file while
+/// the writer goes on (the connection's own checkpoints are off: they ran inside commits).
+async fn checkpoint_continually(db: Db) {
+    loop {
+        if let Err(e) = db.checkpoint(false).await {
+            tracing::warn!("checkpoint failed: {e}");
+        }
+        tokio::time::sleep(CHECKPOINT_EVERY).await;
+    }
+}
+
+async fn write_groups(
+    db: &Db,
+    rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
+) -> Result<(), DbError> {
     let mut group: Vec<Write> = Vec::new();
     let mut flushes = Vec::new();
     while let Some(first) = rx.recv().await {
@@ -38,7 +65,13 @@ pub async fn run_writer(
             };
         }
         if !group.is_empty() {
+            let started = std::time::Instant::now();
             db.write(&group).await?;
+            tracing::debug!(
+                writes = group.len(),
+                ms = started.elapsed().as_secs_f64() * 1e3,
+                "group committed"
+            );
             group.clear();
         }
         for done in flushes.drain(..) {
