@@ -26,6 +26,11 @@ pub enum DbError {
     Query(#[from] sqlx::Error),
     #[error("database holds invalid data: {0}")]
     Corrupt(String),
+    #[error("copying the database to {path}: {source}")]
+    Backup {
+        path: String,
+        source: std::io::Error,
+    },
 }
 
 pub use strider_common::build_id;
@@ -506,6 +511,49 @@ impl Db {
         .await?;
         let (busy, log, copied): (i64, i64, i64) = (row.get(0), row.get(1), row.get(2));
         Ok((busy == 0).then_some(log - copied))
+    }
+
+    /// Writes a consistent copy of the database to `to`: `VACUUM INTO` a temporary file
+    /// beside it (a snapshot; the writer goes on meanwhile), synced, then renamed over
+    /// `to`. So `to` is always one whole database, never half a copy: the safe place for a
+    /// copy on a network file system while the live file stays on local disk.
+    pub async fn backup_to(&self, to: &Path) -> Result<(), DbError> {
+        let err = |source| DbError::Backup {
+            path: to.display().to_string(),
+            source,
+        };
+        let mut name = to.file_name().unwrap_or_default().to_os_string();
+        name.push(".partial");
+        let partial = to.with_file_name(name);
+        match std::fs::remove_file(&partial) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(err(e)),
+            _ => {}
+        }
+        let target = partial
+            .to_str()
+            .ok_or_else(|| err(std::io::Error::other("the path is not UTF-8")))?;
+        sqlx::query("VACUUM INTO ?")
+            .bind(target)
+            .execute(&self.pool)
+            .await?;
+        std::fs::File::open(&partial)
+            .and_then(|f| f.sync_all())
+            .map_err(err)?;
+        // A journal left beside an older copy would be replayed onto this one.
+        for suffix in ["-wal", "-shm"] {
+            let mut name = to.file_name().unwrap_or_default().to_os_string();
+            name.push(suffix);
+            match std::fs::remove_file(to.with_file_name(name)) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(err(e)),
+                _ => {}
+            }
+        }
+        std::fs::rename(&partial, to).map_err(err)?;
+        if let Some(dir) = to.parent().filter(|d| !d.as_os_str().is_empty()) {
+            // The rename is durable once the directory is.
+            let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
+        }
+        Ok(())
     }
 
     /// `PRAGMA integrity_check`: "ok" for a sound file.

@@ -16,7 +16,7 @@ use strider_coordinator::analysis::summary::{summarise, RunResult};
 use strider_coordinator::db::{build_id, first_difference, Db};
 use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
-use strider_coordinator::service::server::{serve, ServeOptions};
+use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
 use strider_worker::batch::default_threads;
 
 #[derive(Parser)]
@@ -90,6 +90,13 @@ enum Command {
         /// is back (set it below a batch job's time limit by the longest trial).
         #[arg(long)]
         stop_leasing_after: Option<f64>,
+        /// Keep a safe copy of the database here (for example on shared storage while
+        /// --db is on local disk): rewritten whole every --backup-every seconds and on exit.
+        #[arg(long)]
+        backup: Option<PathBuf>,
+        /// Seconds between copies to --backup.
+        #[arg(long, default_value_t = 600.0, requires = "backup")]
+        backup_every: f64,
     },
     /// Print the progress of every run of a running coordinator.
     Status {
@@ -129,9 +136,13 @@ enum Command {
     },
 }
 
+/// `serve`'s exit status when it stopped for `--stop-leasing-after` before the experiment
+/// finished (EX_TEMPFAIL: serve again on the same database to go on).
+const EXIT_NOT_FINISHED: u8 = 75;
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
@@ -183,8 +194,8 @@ async fn stop_signal() {
     tracing::info!("asked to stop: committing and shutting down");
 }
 
-fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
+fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    let done: anyhow::Result<()> = match cli.command {
         Command::Run {
             experiment,
             db,
@@ -207,6 +218,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             keep_serving,
             metrics,
             stop_leasing_after,
+            backup,
+            backup_every,
         } => {
             init_logs();
             let secret = Secret::load(token_file.as_deref())?;
@@ -223,14 +236,30 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 stop_leasing_after: stop_leasing_after
                     .map(|s| seconds("stop-leasing-after", s))
                     .transpose()?,
+                backup: match backup {
+                    Some(path) => {
+                        if same_file(&path, &db) {
+                            bail!("--backup {}: that is the database itself", path.display());
+                        }
+                        Some(Backup {
+                            path,
+                            every: seconds("backup-every", backup_every)?,
+                        })
+                    }
+                    None => None,
+                },
             };
-            runtime()?.block_on(async {
+            let ended = runtime()?.block_on(async {
                 let (db, experiment) = open_or_create(experiment.as_deref(), &db, false).await?;
                 let listener = tokio::net::TcpListener::bind(listen)
                     .await
                     .with_context(|| format!("listening on {listen}"))?;
                 serve(db, experiment, listener, secret, opts, stop_signal()).await
-            })
+            })?;
+            return Ok(match ended {
+                Ended::OutOfTime => ExitCode::from(EXIT_NOT_FINISHED),
+                Ended::Finished | Ended::AskedToStop => ExitCode::SUCCESS,
+            });
         }
         Command::Status {
             connect,
@@ -243,6 +272,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Export { db, run, format } => runtime()?.block_on(export(&db, run, format)),
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
         Command::Check { experiment } => check(&experiment),
+    };
+    done.map(|()| ExitCode::SUCCESS)
+}
+
+/// Whether two paths name one file (as far as can be told before either exists).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
     }
 }
 

@@ -66,6 +66,62 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Says a test is skipped because `what` is missing; fails instead when
+/// `STRIDER_REQUIRE_TOOLS` is set (CI sets it after installing everything: it never skips).
+pub fn skip_without(what: &str) {
+    assert!(
+        std::env::var_os("STRIDER_REQUIRE_TOOLS").is_none(),
+        "STRIDER_REQUIRE_TOOLS is set, but {what}"
+    );
+    eprintln!("SKIPPED: {what}");
+}
+
+/// Whether `program` is on PATH (or in the system's sbin directories).
+pub fn installed(program: &str) -> bool {
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    std::env::split_paths(&path)
+        .chain(["/usr/sbin", "/sbin"].map(PathBuf::from))
+        .any(|d| d.join(program).is_file())
+}
+
+/// The secret file of a test directory, written once (atomically): rewriting it while a
+/// process started earlier reads it would hand that process an empty secret.
+pub fn secret_file(dir: &std::path::Path, secret: &str) -> PathBuf {
+    let f = dir.join("secret");
+    if !f.exists() {
+        let tmp = dir.join("secret.tmp");
+        std::fs::write(&tmp, format!("{secret}\n")).expect("writing the secret");
+        std::fs::rename(&tmp, &f).expect("renaming the secret");
+    }
+    f
+}
+
+/// The library `strider-coordinator run` builds for an experiment file on this machine
+/// (2 threads): what every distributed run of it must end in.
+pub fn library_run_builds(experiment: &str) -> serde_json::Value {
+    let dir = temp_dir("reference");
+    let db = dir.join("reference.db");
+    let out = run(
+        "strider-coordinator",
+        &[
+            "run",
+            experiment,
+            "--db",
+            db.to_str().expect("utf-8 path"),
+            "--workers",
+            "2",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let e = export(&db);
+    std::fs::remove_dir_all(&dir).expect("removing the reference's directory");
+    e
+}
+
 /// The whole library and every generation's statistics, as `export` writes them.
 pub fn export(db: &std::path::Path) -> serde_json::Value {
     let out = run(

@@ -7,7 +7,9 @@ use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Duration;
 use strider_coordinator::db::Db;
-use strider_tests::{assert_same_library, binary, export, free_port, run, temp_dir, Process};
+use strider_tests::{
+    assert_same_library, binary, export, free_port, library_run_builds, temp_dir, Process,
+};
 
 const FIXTURE: &str = "tests/fixtures/service.toml";
 const SECRET: &str = "test-secret-0123456789abcdef";
@@ -15,44 +17,14 @@ const SECRET: &str = "test-secret-0123456789abcdef";
 const START: Duration = Duration::from_secs(60);
 const FINISH: Duration = Duration::from_secs(300);
 
-/// The secret file of a test directory, written once: rewriting it while a process
-/// started earlier reads it would hand that process an empty secret.
 fn secret_file(dir: &Path) -> PathBuf {
-    let f = dir.join("secret");
-    if !f.exists() {
-        let tmp = dir.join("secret.tmp");
-        std::fs::write(&tmp, format!("{SECRET}\n")).unwrap();
-        std::fs::rename(&tmp, &f).unwrap();
-    }
-    f
+    strider_tests::secret_file(dir, SECRET)
 }
 
 /// The library `run` builds on one machine (computed once per test process).
 fn reference() -> &'static serde_json::Value {
     static REFERENCE: OnceLock<serde_json::Value> = OnceLock::new();
-    REFERENCE.get_or_init(|| {
-        let dir = temp_dir("service-reference");
-        let db = dir.join("reference.db");
-        let out = run(
-            "strider-coordinator",
-            &[
-                "run",
-                FIXTURE,
-                "--db",
-                db.to_str().unwrap(),
-                "--workers",
-                "2",
-            ],
-        );
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let e = export(&db);
-        std::fs::remove_dir_all(&dir).unwrap();
-        e
-    })
+    REFERENCE.get_or_init(|| library_run_builds(FIXTURE))
 }
 
 /// Starts `serve` on 127.0.0.1:`port` (0: any) and waits until it listens; returns it
@@ -235,7 +207,14 @@ fn a_coordinator_out_of_time_stops_leasing_exits_cleanly_and_the_next_one_finish
         &db,
         0,
         "60",
-        &["--stop-leasing-after", "1", "--metrics", "127.0.0.1:0"],
+        &[
+            "--stop-leasing-after",
+            "1",
+            "--metrics",
+            "127.0.0.1:0",
+            "--backup",
+            dir.join("copy.db").to_str().unwrap(),
+        ],
     );
     let metrics = coordinator
         .wait_for_line(
@@ -275,7 +254,8 @@ fn a_coordinator_out_of_time_stops_leasing_exits_cleanly_and_the_next_one_finish
     // The worker wakes and hands in what it held; then the coordinator exits by itself.
     worker1.signal(libc::SIGCONT);
     let status = coordinator.wait_exit(FINISH);
-    assert!(status.success(), "{}", coordinator.log());
+    // 75 (EX_TEMPFAIL) says "not finished: serve again", for batch scripts.
+    assert_eq!(status.code(), Some(75), "{}", coordinator.log());
     assert!(
         coordinator.log().contains("every lease is back"),
         "{}",
@@ -288,6 +268,10 @@ fn a_coordinator_out_of_time_stops_leasing_exits_cleanly_and_the_next_one_finish
     });
     assert!(unfinished > 0, "the first job should have been cut short");
     assert_eq!(integrity(&db), "ok");
+    // The copy written on the way out is the whole database as the job left it.
+    let copy = dir.join("copy.db");
+    assert_eq!(integrity(&copy), "ok");
+    assert_eq!(export(&copy), export(&db));
     // The next job resumes from the database and ends where one uninterrupted run does.
     let (mut coordinator, url) = serve(&dir, &db, 0, "60");
     let mut worker2 = worker(&dir, &url, "second-job");

@@ -8,6 +8,7 @@ use crate::evaluate::{evaluate, EvalContext};
 use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
 use std::num::NonZeroUsize;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use strider_common::rng::CandidateSeed;
@@ -33,11 +34,64 @@ pub enum Evaluator {
     InstantSyntheticResults,
 }
 
+/// Where the coordinator is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CoordinatorAddress {
+    /// A fixed URL, `http://host:port`.
+    Url(String),
+    /// The file a coordinator writes its URL to (`serve --address-file`), read again
+    /// before every connection attempt: a worker waits for it to appear, and follows a
+    /// coordinator that restarts on another host (a resubmitted batch job).
+    File(PathBuf),
+}
+
+impl CoordinatorAddress {
+    /// The URL to try now: the fixed one, or the first line of the address file.
+    fn resolve(&self) -> Result<String, String> {
+        match self {
+            CoordinatorAddress::Url(u) => Ok(u.clone()),
+            CoordinatorAddress::File(f) => match std::fs::read_to_string(f) {
+                Ok(text) => match text.lines().next().map(str::trim) {
+                    Some(url) if !url.is_empty() => Ok(url.to_string()),
+                    _ => Err(format!("address file {} is empty", f.display())),
+                },
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(format!(
+                    "waiting for the coordinator to write {}",
+                    f.display()
+                )),
+                Err(e) => Err(format!("address file {}: {e}", f.display())),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for CoordinatorAddress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CoordinatorAddress::Url(u) => write!(f, "{u}"),
+            CoordinatorAddress::File(p) => write!(f, "the coordinator named in {}", p.display()),
+        }
+    }
+}
+
+/// The gRPC endpoint of a URL, with the worker's connection settings.
+fn endpoint(url: &str) -> Result<Endpoint, WorkerError> {
+    Ok(Endpoint::from_shared(url.to_string())
+        .map_err(|e| WorkerError::BadUrl {
+            url: url.to_string(),
+            problem: e.to_string(),
+        })?
+        .connect_timeout(Duration::from_secs(5))
+        .tcp_nodelay(true)
+        .http2_keep_alive_interval(Duration::from_secs(10))
+        .keep_alive_timeout(Duration::from_secs(20)))
+}
+
 /// How to reach the coordinator and what to offer it.
 #[derive(Clone, Debug)]
 pub struct ConnectOptions {
-    /// `http://host:port`.
-    pub url: String,
+    /// Where the coordinator is.
+    pub coordinator: CoordinatorAddress,
     /// The `authorization` metadata value (`Bearer <secret>`), if the coordinator wants one.
     pub authorization: Option<String>,
     /// Trials at once.
@@ -87,15 +141,11 @@ pub async fn work(
     opts: ConnectOptions,
     mut shutdown: watch::Receiver<bool>,
 ) -> Result<(), WorkerError> {
-    let endpoint = Endpoint::from_shared(opts.url.clone())
-        .map_err(|e| WorkerError::BadUrl {
-            url: opts.url.clone(),
-            problem: e.to_string(),
-        })?
-        .connect_timeout(Duration::from_secs(5))
-        .tcp_nodelay(true)
-        .http2_keep_alive_interval(Duration::from_secs(10))
-        .keep_alive_timeout(Duration::from_secs(20));
+    // A fixed URL that cannot work is an error now; one read from a file may be fixed
+    // by the coordinator rewriting it, so it is retried.
+    if let CoordinatorAddress::Url(url) = &opts.coordinator {
+        endpoint(url)?;
+    }
     let authorization = opts
         .authorization
         .as_deref()
@@ -115,14 +165,23 @@ pub async fn work(
         if *shutdown.borrow() {
             return Ok(());
         }
-        let end = session(
-            &opts,
-            &endpoint,
-            authorization.clone(),
-            &cores,
-            &mut shutdown,
-        )
-        .await?;
+        let end = match opts.coordinator.resolve() {
+            Ok(url) => match endpoint(&url) {
+                Ok(endpoint) => {
+                    session(
+                        &opts,
+                        &url,
+                        &endpoint,
+                        authorization.clone(),
+                        &cores,
+                        &mut shutdown,
+                    )
+                    .await?
+                }
+                Err(e) => End::Lost(e.to_string(), false),
+            },
+            Err(why) => End::Lost(why, false),
+        };
         match end {
             End::Finished => {
                 tracing::info!("the experiment is finished");
@@ -135,7 +194,7 @@ pub async fn work(
                 }
                 tracing::warn!(
                     "not connected to {}: {why}; retrying in {backoff:?}",
-                    opts.url
+                    opts.coordinator
                 );
             }
         }
@@ -187,6 +246,7 @@ type Done = (v1::CandidateId, Outcome, f64);
 
 async fn session(
     opts: &ConnectOptions,
+    url: &str,
     endpoint: &Endpoint,
     authorization: Option<MetadataValue<tonic::metadata::Ascii>>,
     cores: &Arc<Semaphore>,
@@ -238,7 +298,7 @@ async fn session(
             let e = Experiment::from_toml(&w.settings_toml).map_err(|e| {
                 WorkerError::Refused(format!("the coordinator's experiment does not load: {e}"))
             })?;
-            tracing::info!(experiment = %w.experiment, lease_seconds = w.lease_seconds, "connected to {}", opts.url);
+            tracing::info!(experiment = %w.experiment, lease_seconds = w.lease_seconds, "connected to {url}");
             (EvalContext::of(&e), w.lease_seconds)
         }
         Ok(Some(_)) => {
@@ -375,4 +435,37 @@ async fn drain(
     }
     // Threads still simulating finish in the background; the process does not wait.
     trials.detach_all();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_address_file_is_waited_for_then_read_each_time() {
+        let dir = std::env::temp_dir().join(format!("strider-address-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("coordinator.address");
+        let _ = std::fs::remove_file(&file);
+        let address = CoordinatorAddress::File(file.clone());
+
+        let missing = address.resolve().unwrap_err();
+        assert!(missing.contains("waiting for the coordinator"), "{missing}");
+        std::fs::write(&file, "").unwrap();
+        assert!(address.resolve().unwrap_err().contains("is empty"));
+        std::fs::write(&file, "http://node1:50051\n").unwrap();
+        assert_eq!(address.resolve().unwrap(), "http://node1:50051");
+        // A coordinator resumed on another host rewrites it; the next attempt follows.
+        std::fs::write(&file, "http://node7:50051\n").unwrap();
+        assert_eq!(address.resolve().unwrap(), "http://node7:50051");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_malformed_fixed_url_is_an_error_not_a_retry() {
+        assert!(matches!(
+            endpoint("not a url"),
+            Err(WorkerError::BadUrl { .. })
+        ));
+    }
 }

@@ -1,5 +1,5 @@
-//! `strider-worker`: evaluates robot designs. `--connect URL` works for a coordinator on
-//! every core; `eval` simulates one genome; `inspect`, `params` and `random` describe
+//! `strider-worker`: evaluates robot designs. `--connect URL` (or `--address-file F`)
+//! works for a coordinator on every core; `eval` simulates one genome; `inspect`, `params` and `random` describe
 //! genomes without simulating; `survey` measures how often random designs pass the brief.
 
 use anyhow::Context;
@@ -11,7 +11,7 @@ use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
 use strider_worker::batch::default_threads;
-use strider_worker::client::{work, ConnectOptions, Evaluator};
+use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
 use strider_worker::survey::Survey;
 use strider_worker::trace::CsvTrace;
@@ -35,8 +35,13 @@ struct Cli {
 struct ConnectArgs {
     /// Work for the coordinator at this URL (e.g. http://host:50051) until its experiment
     /// is finished; retries with backoff while it is unreachable.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "address_file")]
     connect: Option<String>,
+    /// Work for the coordinator whose URL is the first line of this file (written by
+    /// `serve --address-file`): waits for the file, and reads it again before every
+    /// connection attempt, so it follows a coordinator that restarts elsewhere.
+    #[arg(long)]
+    address_file: Option<PathBuf>,
     /// File holding the shared secret (else the STRIDER_SECRET environment variable).
     #[arg(long)]
     token_file: Option<PathBuf>,
@@ -161,7 +166,7 @@ fn load_secret(file: Option<&Path>) -> anyhow::Result<Option<String>> {
     Ok(Some(format!("Bearer {secret}")))
 }
 
-fn connect(args: ConnectArgs, url: String) -> anyhow::Result<()> {
+fn connect(args: ConnectArgs, coordinator: CoordinatorAddress) -> anyhow::Result<()> {
     let filter = tracing_subscriber::EnvFilter::try_from_env("STRIDER_LOG")
         .or_else(|_| tracing_subscriber::EnvFilter::try_from_default_env())
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
@@ -179,7 +184,7 @@ fn connect(args: ConnectArgs, url: String) -> anyhow::Result<()> {
         .map(|h| h.trim().to_string())
         .unwrap_or_else(|_| "localhost".into());
     let opts = ConnectOptions {
-        url,
+        coordinator,
         authorization: load_secret(args.token_file.as_deref())?,
         threads: args.threads.unwrap_or_else(default_threads),
         name: args
@@ -220,10 +225,14 @@ fn connect(args: ConnectArgs, url: String) -> anyhow::Result<()> {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
-        return match cli.connect.connect.clone() {
-            Some(url) => connect(cli.connect, url),
-            None => anyhow::bail!("nothing to do: pass --connect URL, or a command (see --help)"),
+        let coordinator = match (&cli.connect.connect, &cli.connect.address_file) {
+            (Some(url), _) => CoordinatorAddress::Url(url.clone()),
+            (None, Some(file)) => CoordinatorAddress::File(file.clone()),
+            (None, None) => anyhow::bail!(
+                "nothing to do: pass --connect URL or --address-file FILE, or a command (see --help)"
+            ),
         };
+        return connect(cli.connect, coordinator);
     };
     match command {
         Command::Eval {

@@ -7,7 +7,7 @@ use crate::db::Db;
 use std::num::NonZeroUsize;
 use std::time::Duration;
 use strider_common::Experiment;
-use strider_worker::client::{work, ConnectOptions, Evaluator};
+use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use tokio::net::TcpListener;
 use tokio::sync::watch;
 
@@ -24,7 +24,7 @@ pub async fn run_local(
     let (stop_worker, stopped) = watch::channel(false);
     let worker = tokio::spawn(work(
         ConnectOptions {
-            url,
+            coordinator: CoordinatorAddress::Url(url),
             authorization: Some(secret.header_value()),
             threads,
             name: format!("local ({} threads)", threads),
@@ -49,13 +49,13 @@ pub async fn run_local(
         r = &mut served => {
             let _ = stop_worker.send(true);
             let _ = worker.await;
-            r
+            r.map(|_| ())
         }
         w = &mut worker => {
             // The worker only ends by itself when refused: a bug, not a condition to wait out.
             match w {
                 Ok(Err(e)) => Err(anyhow::anyhow!("the local worker stopped: {e}")),
-                _ => served.await,
+                _ => served.await.map(|_| ()),
             }
         }
     }

@@ -44,6 +44,17 @@ pub struct ServeOptions {
     /// Stop handing out candidates this long after starting, and exit once every lease
     /// out has come back (for batch jobs with a time limit; serve again to go on).
     pub stop_leasing_after: Option<Duration>,
+    /// Copy the database here this often, and once more on the way out.
+    pub backup: Option<Backup>,
+}
+
+/// A periodic safe copy of the database (see [`Db::backup_to`]).
+#[derive(Clone, Debug)]
+pub struct Backup {
+    /// Where the copy goes (replaced whole each time).
+    pub path: PathBuf,
+    /// Time between copies.
+    pub every: Duration,
 }
 
 impl Default for ServeOptions {
@@ -56,6 +67,7 @@ impl Default for ServeOptions {
             address_file: None,
             metrics: None,
             stop_leasing_after: None,
+            backup: None,
         }
     }
 }
@@ -78,6 +90,17 @@ fn write_atomically(path: &std::path::Path, text: &str) -> std::io::Result<()> {
     std::fs::rename(&tmp, path)
 }
 
+/// Why [`serve`] returned (everything committed in every case).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ended {
+    /// Every run is finished.
+    Finished,
+    /// `stop` completed (SIGTERM, Ctrl-C).
+    AskedToStop,
+    /// `stop_leasing_after` ran out and every lease came back; serve again to go on.
+    OutOfTime,
+}
+
 /// Serves `experiment` (already stored in `db`) on `listener` until every run is finished
 /// (unless `keep_serving`) or `stop` completes; returns once everything is committed.
 pub async fn serve(
@@ -87,7 +110,7 @@ pub async fn serve(
     secret: Secret,
     opts: ServeOptions,
     stop: impl Future<Output = ()> + Send,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Ended> {
     let runs = db.runs().await?;
     let stored = db.pending().await?;
     let next_worker = db.next_worker_id().await?;
@@ -151,6 +174,12 @@ pub async fn serve(
         tracing::info!("metrics on http://{}/metrics", listener.local_addr()?);
         tasks.push(tokio::spawn(serve_metrics(listener, shared.clone())));
     }
+    if let Some(backup) = opts.backup.clone() {
+        tasks.push(tokio::spawn(back_up_periodically(
+            shared.db.clone(),
+            backup,
+        )));
+    }
     let (out_of_time_tx, mut out_of_time) = oneshot::channel::<()>();
     if let Some(after) = opts.stop_leasing_after {
         tasks.push(tokio::spawn(stop_leasing(
@@ -187,21 +216,23 @@ pub async fn serve(
         );
     tokio::pin!(server);
     tokio::pin!(stop);
-    let outcome: anyhow::Result<()> = loop {
+    let outcome: anyhow::Result<Ended> = loop {
         tokio::select! {
-            r = &mut server => break r.map_err(anyhow::Error::from),
+            r = &mut server => break r
+                .map_err(anyhow::Error::from)
+                .and_then(|()| Err(anyhow::anyhow!("the gRPC server stopped by itself"))),
             r = &mut writer => break match r {
                 Ok(Ok(())) => Err(anyhow::anyhow!("the database writer stopped")),
                 Ok(Err(e)) => Err(e.into()),
                 Err(e) => Err(anyhow::anyhow!("the database writer panicked: {e}")),
             },
-            _ = &mut stop => break Ok(()),
+            _ = &mut stop => break Ok(Ended::AskedToStop),
             r = &mut out_of_time => if r.is_ok() {
-                break Ok(());
+                break Ok(Ended::OutOfTime);
             },
             r = finished.wait_for(|f| *f), if !keep_serving => {
                 if r.is_ok() {
-                    break Ok(());
+                    break Ok(Ended::Finished);
                 }
             }
         }
@@ -213,7 +244,7 @@ pub async fn serve(
     // them a moment, then stop serving whatever is left.
     let _ = server_stop_tx.send(());
     let _ = tokio::time::timeout(Duration::from_secs(5), &mut server).await;
-    outcome?;
+    let mut ended = outcome?;
     // Everything the scheduler produced is committed before returning.
     let (done_tx, done_rx) = oneshot::channel();
     let _ = shared.writer.send(WriterMessage::Flush(done_tx));
@@ -226,8 +257,32 @@ pub async fn serve(
     }
     if shared.with(false, |s| s.finished()) {
         eprintln!("{}", progress_line(&shared));
+        ended = Ended::Finished;
     }
-    Ok(())
+    if let Some(backup) = &opts.backup {
+        shared.db.backup_to(&backup.path).await?;
+        tracing::info!("copied the database to {}", backup.path.display());
+    }
+    Ok(ended)
+}
+
+/// Copies the database every `backup.every`; a failed copy is logged and tried again
+/// next time (the run goes on: the live database is intact).
+async fn back_up_periodically(db: Db, backup: Backup) {
+    let mut every = tokio::time::interval(backup.every);
+    every.tick().await;
+    loop {
+        every.tick().await;
+        let started = Instant::now();
+        match db.backup_to(&backup.path).await {
+            Ok(()) => tracing::info!(
+                "copied the database to {} in {:.1} s",
+                backup.path.display(),
+                started.elapsed().as_secs_f64()
+            ),
+            Err(e) => tracing::warn!("{e}; trying again in {:?}", backup.every),
+        }
+    }
 }
 
 /// Stops leasing after `after`, then says so on `done` once no lease is out.
