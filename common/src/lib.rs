@@ -1,10 +1,11 @@
 //! Strider's robot model: the genome and its parameter table, the body plan and mass model,
 //! the gait, the start pose, features and cells, the design brief, random generation and
-//! mutation, and the experiment file. Plain data and pure functions; no I/O beyond reading
+//! mutation, the experiment file, and URDF export. Plain data and pure functions; no I/O beyond reading
 //! files, no physics engine.
 
 pub mod body_plan;
 pub mod brief;
+pub mod drawing;
 pub mod experiment;
 pub mod features;
 pub mod gait;
@@ -15,6 +16,7 @@ pub mod outcome;
 pub mod params;
 pub mod pose;
 pub mod rng;
+pub mod urdf;
 pub mod variation;
 
 pub use body_plan::BodyPlan;

@@ -4,6 +4,7 @@
 pub mod analysis;
 pub mod db;
 pub mod evolution;
+pub mod export;
 pub mod library;
 pub mod scheduler;
 pub mod service;

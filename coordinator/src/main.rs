@@ -5,15 +5,18 @@
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
+use std::collections::HashMap;
+use std::io::Write;
 use std::net::SocketAddr;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
-use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
 use strider_common::Experiment;
+use strider_common::{BodyPlan, CellIndex, Outcome};
 use strider_coordinator::analysis::summary::{summarise, RunResult};
-use strider_coordinator::db::{build_id, first_difference, Db};
+use strider_coordinator::db::{build_id, first_difference, Db, EliteFilter, RunRecord};
+use strider_coordinator::export::{self, EliteChoice};
 use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
 use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
@@ -121,6 +124,13 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value = "json")]
         format: Format,
+        /// One elite instead of all: RUN:CELL, or `best` (of --run, or of the experiment).
+        #[arg(long, requires = "urdf")]
+        elite: Option<EliteChoice>,
+        /// Write the chosen elite's design here as URDF (links with masses and inertias,
+        /// revolute joints with axes and the motors' limits).
+        #[arg(long, requires = "elite")]
+        urdf: Option<PathBuf>,
     },
     /// Summarise an experiment: final figures per scheme, Mann-Whitney tests between
     /// schemes, the top designs' mean features and controllers, and the design rules.
@@ -143,11 +153,27 @@ const EXIT_NOT_FINISHED: u8 = 75;
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
+        // `export ... | head`: the reader had enough; not an error.
+        Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
     }
+}
+
+fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .map(|io| io.kind())
+            .or_else(|| {
+                cause
+                    .downcast_ref::<serde_json::Error>()
+                    .and_then(|j| j.io_error_kind())
+            })
+            == Some(std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
@@ -269,7 +295,16 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let secret = Secret::load(token_file.as_deref())?;
             runtime()?.block_on(status(&connect, &secret, json))
         }
-        Command::Export { db, run, format } => runtime()?.block_on(export(&db, run, format)),
+        Command::Export {
+            db,
+            run,
+            format,
+            elite,
+            urdf,
+        } => match (elite, urdf) {
+            (Some(elite), Some(urdf)) => runtime()?.block_on(export_urdf(&db, run, elite, &urdf)),
+            _ => runtime()?.block_on(export(&db, run, format)),
+        },
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
         Command::Check { experiment } => check(&experiment),
     };
@@ -447,6 +482,60 @@ async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment)> {
 
 async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Result<()> {
     let (db, experiment) = open_existing(path).await?;
+    let runs = selected_runs(&db, only).await?;
+    let mut rows = Vec::new();
+    for r in &runs {
+        let outcomes: HashMap<CellIndex, Outcome> = db
+            .list_elites(
+                &EliteFilter {
+                    run: Some(r.id),
+                    ..EliteFilter::default()
+                },
+                0,
+                u32::MAX,
+            )
+            .await?
+            .into_iter()
+            .map(|e| (e.cell, e.outcome))
+            .collect();
+        rows.push(export::rows(r, &outcomes));
+    }
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    match format {
+        Format::Json => {
+            let mut json = Vec::new();
+            for (r, rows) in runs.iter().zip(&rows) {
+                let generations: Vec<_> = db
+                    .generations(r.id)
+                    .await?
+                    .into_iter()
+                    .map(|(g, evaluations, s)| serde_json::json!({"generation": g, "evaluations": evaluations, "stats": s}))
+                    .collect();
+                let elites: Vec<_> = rows.iter().map(export::json).collect();
+                json.push(serde_json::json!({
+                    "run": r.id, "scheme": r.spec.scheme.name(), "repeat": r.spec.repeat, "seed": r.spec.seed.0,
+                    "generation": r.generation, "finished": r.finished, "generations": generations, "elites": elites,
+                }));
+            }
+            serde_json::to_writer_pretty(
+                &mut out,
+                &serde_json::json!({"experiment": experiment.name, "runs": json}),
+            )?;
+            writeln!(out)?;
+        }
+        Format::Csv => {
+            writeln!(out, "{}", export::csv_header())?;
+            for row in rows.iter().flatten() {
+                writeln!(out, "{}", export::csv_line(row))?;
+            }
+        }
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// Every run of the database, or only `only` (which must exist).
+async fn selected_runs(db: &Db, only: Option<i64>) -> anyhow::Result<Vec<RunRecord>> {
     let runs: Vec<_> = db
         .runs()
         .await?
@@ -458,65 +547,30 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
             bail!("the database has no run {id}");
         }
     }
-    match format {
-        Format::Json => {
-            let mut out = Vec::new();
-            for r in &runs {
-                let generations: Vec<_> = db
-                    .generations(r.id)
-                    .await?
-                    .into_iter()
-                    .map(|(g, evaluations, s)| serde_json::json!({"generation": g, "evaluations": evaluations, "stats": s}))
-                    .collect();
-                let elites: Vec<_> = r
-                    .library
-                    .elites()
-                    .map(|(cell, e)| serde_json::json!({"cell": cell.0, "candidate": e.candidate.0, "fitness": e.fitness, "genome": e.genome}))
-                    .collect();
-                out.push(serde_json::json!({
-                    "run": r.id, "scheme": r.spec.scheme.name(), "repeat": r.spec.repeat, "seed": r.spec.seed.0,
-                    "generation": r.generation, "finished": r.finished, "generations": generations, "elites": elites,
-                }));
-            }
-            println!(
-                "{}",
-                serde_json::to_string_pretty(
-                    &serde_json::json!({"experiment": experiment.name, "runs": out})
-                )?
-            );
-        }
-        Format::Csv => {
-            let mut header = String::from("run,scheme,repeat,cell,candidate,fitness");
-            for p in MORPHOLOGY_PARAMS.iter().chain(CONTROLLER_PARAMS) {
-                header.push(',');
-                header.push_str(p.name);
-            }
-            println!("{header}");
-            for r in &runs {
-                for (cell, e) in r.library.elites() {
-                    let mut line = format!(
-                        "{},{},{},{},{},{}",
-                        r.id, r.spec.scheme, r.spec.repeat, cell.0, e.candidate.0, e.fitness
-                    );
-                    let values = strider_common::genome::ParamVector::values(&e.genome.morphology)
-                        .iter()
-                        .zip(MORPHOLOGY_PARAMS)
-                        .chain(
-                            strider_common::genome::ParamVector::values(&e.genome.controller)
-                                .iter()
-                                .zip(CONTROLLER_PARAMS),
-                        );
-                    for (v, spec) in values {
-                        match spec.kind {
-                            ParamKind::Integer => line.push_str(&format!(",{}", *v as i64)),
-                            ParamKind::Real => line.push_str(&format!(",{v}")),
-                        }
-                    }
-                    println!("{line}");
-                }
-            }
-        }
-    }
+    Ok(runs)
+}
+
+/// `export --elite E --urdf FILE`: one elite's body plan as URDF.
+async fn export_urdf(
+    path: &Path,
+    only: Option<i64>,
+    choice: EliteChoice,
+    urdf: &Path,
+) -> anyhow::Result<()> {
+    let (db, experiment) = open_existing(path).await?;
+    let runs = selected_runs(&db, only).await?;
+    let (run, cell, fitness, genome) = export::find(&runs, choice).map_err(anyhow::Error::msg)?;
+    let plan = BodyPlan::new(&genome.morphology, experiment.brief.payload);
+    let name = format!("{} run {run} cell {}", experiment.name, cell.0);
+    std::fs::write(urdf, strider_common::urdf::to_urdf(&name, &plan))
+        .with_context(|| format!("writing {}", urdf.display()))?;
+    eprintln!(
+        "run {run}, cell {}: fitness {fitness:.4}, {:.2} kg, {} legs -> {}",
+        cell.0,
+        plan.total_mass(),
+        plan.legs.len(),
+        urdf.display()
+    );
     Ok(())
 }
 

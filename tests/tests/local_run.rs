@@ -126,7 +126,7 @@ fn a_different_experiment_on_an_existing_database_is_refused() {
 }
 
 #[test]
-fn export_csv_has_one_row_per_elite_with_every_parameter() {
+fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to_urdf() {
     let dir = temp_dir("csv");
     let db = dir.join("c.db");
     run_to_end(&db, "2");
@@ -144,9 +144,77 @@ fn export_csv_has_one_row_per_elite_with_every_parameter() {
     let text = String::from_utf8(out.stdout).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!(header.len(), 6 + 43 + 7);
-    assert_eq!(header[6], "body_half_x");
-    assert_eq!(lines.count(), elites);
+    // Identity and fitness, 6 features, 6 trial figures, 43 + 7 genome parameters.
+    assert_eq!(header.len(), 6 + 6 + 6 + 43 + 7);
+    assert_eq!(header[6], "total_leg_length");
+    assert_eq!(header[12], "distance");
+    assert_eq!(header[18], "body_half_x");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), elites);
+    for row in &rows {
+        assert_eq!(row.len(), header.len());
+        // Every elite passed a trial: its features and figures are there.
+        assert!(
+            row[6..18].iter().all(|v| v.parse::<f64>().is_ok()),
+            "{row:?}"
+        );
+    }
+
+    // The fittest elite as URDF: a standard parser loads it, and its links weigh what
+    // the trial's robot weighed.
+    let best = rows
+        .iter()
+        .max_by(|a, b| {
+            let f = |r: &Vec<&str>| r[5].parse::<f64>().unwrap();
+            f(a).total_cmp(&f(b))
+        })
+        .unwrap();
+    let urdf = dir.join("best.urdf");
+    let out = run(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db.to_str().unwrap(),
+            "--elite",
+            "best",
+            "--urdf",
+            urdf.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let robot = urdf_rs::read_file(&urdf).expect("the URDF parses");
+    let mass: f64 = robot.links.iter().map(|l| l.inertial.mass.value).sum();
+    let trial_mass: f64 = best[15].parse().unwrap();
+    assert!((mass - trial_mass).abs() < 1e-9, "{mass} vs {trial_mass}");
+    assert!(
+        robot.name.contains(&format!("cell {}", best[3])),
+        "{}",
+        robot.name
+    );
+    // A cell with no elite is refused by name.
+    let out = run(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db.to_str().unwrap(),
+            "--elite",
+            "0:4000000000",
+            "--urdf",
+            urdf.to_str().unwrap(),
+        ],
+    );
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("has no elite in cell 4000000000"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -100,3 +100,46 @@ fn eval_refuses_an_unknown_scheme() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("unknown scheme `walk`"), "{err}");
 }
+
+#[test]
+fn eval_draws_the_design_to_scale_and_replays_the_trial() {
+    let dir = strider_tests::temp_dir("eval-drawings");
+    let (svg, replay) = (dir.join("max.svg"), dir.join("max-replay.svg"));
+    let out = run(
+        "strider-worker",
+        &[
+            "eval",
+            "designs/max.json",
+            "--svg",
+            svg.to_str().unwrap(),
+            "--replay",
+            replay.to_str().unwrap(),
+        ],
+    );
+    stdout(&out);
+    let drawing = std::fs::read_to_string(&svg).unwrap();
+    assert!(drawing.starts_with("<svg xmlns=\"http://www.w3.org/2000/svg\""));
+    assert!(drawing.trim_end().ends_with("</svg>"));
+    for label in [
+        ">side<",
+        ">front<",
+        ">top<",
+        ">1 m<",
+        "max.json (static scheme)",
+    ] {
+        assert!(drawing.contains(label), "no {label} in the drawing");
+    }
+    // MAX: a body and 6 legs of 3 links, in each of the 3 views.
+    assert_eq!(drawing.matches("<polygon").count(), 3 * (1 + 6 * 3));
+
+    let animation = std::fs::read_to_string(&replay).unwrap();
+    assert!(animation.trim_end().ends_with("</svg>"));
+    // 20 frames per simulated second over the trial, each shown in turn, looping.
+    let frames = animation
+        .matches("<animate attributeName=\"display\"")
+        .count();
+    assert!(frames >= 20, "{frames} frames");
+    assert_eq!(animation.matches("<polygon").count(), frames * (1 + 6 * 3));
+    assert!(animation.contains("repeatCount=\"indefinite\""));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

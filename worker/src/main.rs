@@ -7,12 +7,15 @@ use clap::{Parser, Subcommand};
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use strider_common::drawing::{design_svg, replay_svg};
 use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::StartPose;
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
 use strider_worker::batch::default_threads;
 use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
+use strider_worker::replay::Replay;
 use strider_worker::survey::Survey;
 use strider_worker::trace::CsvTrace;
 
@@ -84,6 +87,13 @@ enum Command {
         /// Write a CSV trace (body pose, joint angles and torques per control step).
         #[arg(long)]
         trace: Option<PathBuf>,
+        /// Write a drawing of the design (side, front and top views of its start pose, to
+        /// scale, with a 1 m bar) as SVG.
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Write a replay of the trial: an animated side view (SVG; opens in a browser).
+        #[arg(long)]
+        replay: Option<PathBuf>,
     },
     /// Print a genome's masses, start-pose height, features, cell and static brief checks.
     Inspect {
@@ -242,6 +252,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             experiment,
             json,
             trace,
+            svg,
+            replay,
         } => {
             let g = Genome::load(&genome)?;
             let ctx = context(experiment.as_deref())?;
@@ -251,6 +263,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 // Replay the reported controller with a trace attached (the trial is
                 // deterministic, so this is the same trial).
                 write_trace(&ctx, &g, outcome.controller(), &path)?;
+            }
+            let title = format!(
+                "{} ({} scheme): {}",
+                genome.file_name().unwrap_or_default().to_string_lossy(),
+                scheme.name(),
+                outcome_summary(&outcome)
+            );
+            if let Some(path) = svg {
+                let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+                let pose = StartPose::new(&plan, outcome.controller());
+                std::fs::write(&path, design_svg(&plan, &pose, &title))
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+            if let Some(path) = replay {
+                let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+                let mut frames = Replay::default();
+                evaluate_controller(&ctx, &g, &plan, outcome.controller(), &mut frames);
+                std::fs::write(&path, replay_svg(&plan, &frames.frames, &title))
+                    .with_context(|| format!("writing {}", path.display()))?;
             }
             if json {
                 println!(
@@ -326,6 +357,15 @@ fn write_trace(
     trace
         .finish()
         .with_context(|| format!("writing trace file {}", path.display()))
+}
+
+/// One line about an outcome, for drawing titles.
+fn outcome_summary(o: &Outcome) -> String {
+    match (o.fitness(), o.stats()) {
+        (Some(f), Some(s)) => format!("fitness {f:.3}, {:.1} kg, {:.2} m/s", s.mass, s.speed),
+        (None, Some(s)) => format!("{}, {:.1} kg, {:.2} m/s", o.kind(), s.mass, s.speed),
+        _ => o.kind().to_string(),
+    }
 }
 
 fn print_outcome(o: &Outcome) {

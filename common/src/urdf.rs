@@ -1,0 +1,193 @@
+//! A body plan as URDF, the robot description ROS, Gazebo, PyBullet, MuJoCo's importer and
+//! most robotics tools read: one link per rigid part (body, and hip, upper and lower leg of
+//! every leg) with its mass, centre of mass and inertia; one revolute joint per motor with
+//! its axis, torque and speed limits (the motor model) and damping.
+//!
+//! Frames: the model's body frame is x forward, y up, z to the right (docs/model.md);
+//! URDF's convention (ROS REP 103) is x forward, y left, z up. The root link `body` is in
+//! the URDF convention; every leg link keeps the model's own link frame (origin at its
+//! joint, the tube along +z), so the numbers match `inspect` and the trace.
+
+use crate::body_plan::{BodyPlan, LinkPlan};
+use crate::mass::MassProperties;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use std::fmt::Write;
+
+/// Names of a leg's three links, body outwards.
+pub const LINK_NAMES: [&str; 3] = ["hip", "upper", "lower"];
+
+/// The rotation taking model body-frame coordinates to URDF (REP 103) coordinates:
+/// (x, y, z) to (x, -z, y).
+pub fn urdf_from_model() -> UnitQuaternion<f64> {
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(Matrix3::new(
+        1.0, 0.0, 0.0, //
+        0.0, 0.0, -1.0, //
+        0.0, 1.0, 0.0,
+    )))
+}
+
+/// The URDF name of leg `leg`'s link `link` (legs in the plan's order: right side front
+/// to back, then left): `leg{leg}_{hip|upper|lower}`.
+pub fn link_name(leg: usize, link: usize) -> String {
+    format!("leg{leg}_{}", LINK_NAMES[link])
+}
+
+/// The URDF name of the joint that moves [`link_name`]`(leg, link)`.
+pub fn joint_name(leg: usize, link: usize) -> String {
+    format!("{}_joint", link_name(leg, link))
+}
+
+/// `plan` as a URDF document named `name`.
+pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
+    let mut out = String::new();
+    let to_urdf = urdf_from_model();
+    let total = plan.total_mass();
+    let _ = writeln!(out, r#"<?xml version="1.0"?>"#);
+    let _ = writeln!(
+        out,
+        "<!-- Strider design: total mass {total:.3} kg including {:.3} kg payload. Joints carry\n     \
+         the motor model's torque (effort, Nm) and speed (velocity, rad/s) limits; the model\n     \
+         has no angle stops, so position limits are +-pi. Spring stiffness per joint is in\n     \
+         each joint's comment (URDF has no field for it). -->",
+        plan.payload_mass
+    );
+    let _ = writeln!(out, r#"<robot name="{}">"#, xml_escape(name));
+
+    // The body, turned into URDF axes.
+    let body_mass = rotate(&plan.body_mass, &to_urdf);
+    let size = plan.body_half_extents * 2.0;
+    let box_size = Vector3::new(size.x, size.z, size.y);
+    let _ = writeln!(out, r#"  <link name="body">"#);
+    write_inertial(&mut out, &body_mass);
+    write_box(&mut out, &box_size, &Vector3::zeros());
+    let _ = writeln!(out, "  </link>");
+
+    for (l, leg) in plan.legs.iter().enumerate() {
+        for (k, link) in leg.links.iter().enumerate() {
+            let parent = if k == 0 {
+                "body".to_string()
+            } else {
+                link_name(l, k - 1)
+            };
+            // URDF: child = origin * rotation(axis, q). Model: child = T(anchor) * R(axis, q)
+            // * rest = T(anchor) * rest * R(rest^-1 axis, q).
+            let mut origin = Isometry3::from_parts(Translation3::from(link.anchor), link.rest);
+            let mut axis = link.rest.inverse_transform_vector(&link.axis);
+            if k == 0 {
+                origin = Isometry3::from_parts(Translation3::identity(), to_urdf) * origin;
+            }
+            axis /= axis.norm();
+            write_link(&mut out, &link_name(l, k), link);
+            write_joint(&mut out, l, k, &parent, &origin, &axis, link);
+        }
+    }
+    let _ = writeln!(out, "</robot>");
+    out
+}
+
+fn write_link(out: &mut String, name: &str, link: &LinkPlan) {
+    let _ = writeln!(out, r#"  <link name="{name}">"#);
+    write_inertial(out, &link.mass);
+    write_box(
+        out,
+        &Vector3::new(link.width, link.width, link.length),
+        &Vector3::new(0.0, 0.0, 0.5 * link.length),
+    );
+    let _ = writeln!(out, "  </link>");
+}
+
+fn write_joint(
+    out: &mut String,
+    leg: usize,
+    link: usize,
+    parent: &str,
+    origin: &Isometry3<f64>,
+    axis: &Vector3<f64>,
+    plan: &LinkPlan,
+) {
+    let d = &plan.drive;
+    let (r, p, y) = origin.rotation.euler_angles();
+    let t = origin.translation.vector;
+    let _ = writeln!(
+        out,
+        r#"  <!-- stiffness {:.6} Nm/rad -->
+  <joint name="{}" type="revolute">
+    <parent link="{parent}"/>
+    <child link="{}"/>
+    <origin xyz="{} {} {}" rpy="{} {} {}"/>
+    <axis xyz="{} {} {}"/>
+    <limit lower="{}" upper="{}" effort="{}" velocity="{}"/>
+    <dynamics damping="{}" friction="0"/>
+  </joint>"#,
+        d.stiffness,
+        joint_name(leg, link),
+        link_name(leg, link),
+        t.x,
+        t.y,
+        t.z,
+        r,
+        p,
+        y,
+        axis.x,
+        axis.y,
+        axis.z,
+        -std::f64::consts::PI,
+        std::f64::consts::PI,
+        d.max_torque,
+        d.max_speed,
+        d.damping,
+    );
+}
+
+fn write_inertial(out: &mut String, m: &MassProperties) {
+    let i = &m.inertia;
+    let _ = writeln!(
+        out,
+        r#"    <inertial>
+      <origin xyz="{} {} {}" rpy="0 0 0"/>
+      <mass value="{}"/>
+      <inertia ixx="{}" ixy="{}" ixz="{}" iyy="{}" iyz="{}" izz="{}"/>
+    </inertial>"#,
+        m.com.x,
+        m.com.y,
+        m.com.z,
+        m.mass,
+        i[(0, 0)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 1)],
+        i[(1, 2)],
+        i[(2, 2)],
+    );
+}
+
+/// The same box as visual and collision geometry.
+fn write_box(out: &mut String, size: &Vector3<f64>, centre: &Vector3<f64>) {
+    for tag in ["visual", "collision"] {
+        let _ = writeln!(
+            out,
+            r#"    <{tag}>
+      <origin xyz="{} {} {}" rpy="0 0 0"/>
+      <geometry><box size="{} {} {}"/></geometry>
+    </{tag}>"#,
+            centre.x, centre.y, centre.z, size.x, size.y, size.z
+        );
+    }
+}
+
+/// Mass properties expressed in rotated axes.
+fn rotate(m: &MassProperties, r: &UnitQuaternion<f64>) -> MassProperties {
+    let rm = r.to_rotation_matrix();
+    MassProperties {
+        mass: m.mass,
+        com: r * m.com,
+        inertia: rm.matrix() * m.inertia * rm.matrix().transpose(),
+    }
+}
+
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

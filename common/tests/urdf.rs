@@ -1,0 +1,97 @@
+//! URDF export checked with a standard parser (urdf-rs, the one the Rust robotics stack
+//! uses): every part and motor is there, masses and inertias round-trip, and forward
+//! kinematics through the parsed joints (origins, axes) puts every link where the body
+//! plan's start pose does.
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use std::path::Path;
+use strider_common::urdf::{joint_name, link_name, to_urdf, urdf_from_model};
+use strider_common::{BodyPlan, Genome, StartPose};
+
+fn design(path: &str) -> Genome {
+    Genome::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
+}
+
+fn v(a: &[f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+fn pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::from(v(&p.xyz.0)),
+        UnitQuaternion::from_euler_angles(p.rpy.0[0], p.rpy.0[1], p.rpy.0[2]),
+    )
+}
+
+fn check(genome: &Genome) {
+    let plan = BodyPlan::new(&genome.morphology, 10.0);
+    let text = to_urdf("design <1>", &plan);
+    let robot = urdf_rs::read_from_string(&text).expect("the URDF parses");
+    assert_eq!(robot.name, "design <1>");
+    assert_eq!(robot.links.len(), 1 + 3 * plan.legs.len());
+    assert_eq!(robot.joints.len(), 3 * plan.legs.len());
+
+    // Masses: every part, and the total.
+    let total: f64 = robot.links.iter().map(|l| l.inertial.mass.value).sum();
+    assert!(
+        (total - plan.total_mass()).abs() < 1e-9,
+        "{total} vs {}",
+        plan.total_mass()
+    );
+    let link = |name: &str| robot.links.iter().find(|l| l.name == name).unwrap();
+    let joint = |name: &str| robot.joints.iter().find(|j| j.name == name).unwrap();
+    for (l, leg) in plan.legs.iter().enumerate() {
+        for (k, part) in leg.links.iter().enumerate() {
+            let parsed = link(&link_name(l, k));
+            assert_eq!(parsed.inertial.mass.value, part.mass.mass);
+            assert!((v(&parsed.inertial.origin.xyz.0) - part.mass.com).norm() < 1e-12);
+            assert_eq!(parsed.inertial.inertia.ixx, part.mass.inertia[(0, 0)]);
+            assert_eq!(parsed.inertial.inertia.iyz, part.mass.inertia[(1, 2)]);
+            let j = joint(&joint_name(l, k));
+            assert_eq!(j.joint_type, urdf_rs::JointType::Revolute);
+            assert_eq!(j.limit.effort, part.drive.max_torque);
+            assert_eq!(j.limit.velocity, part.drive.max_speed);
+            assert_eq!(j.child.link, link_name(l, k));
+        }
+    }
+
+    // Forward kinematics through the parsed joints at the start pose's angles lands every
+    // link where the model puts it (in URDF axes).
+    let start = StartPose::new(&plan, &genome.controller);
+    let to_urdf = Isometry3::from_parts(Translation3::identity(), urdf_from_model());
+    for (l, leg) in plan.legs.iter().enumerate() {
+        let q = start.joint_angles[l];
+        let expected = leg.link_poses(q);
+        let mut at = Isometry3::identity();
+        for k in 0..3 {
+            let j = joint(&joint_name(l, k));
+            let axis = nalgebra::Unit::new_normalize(v(&j.axis.xyz.0));
+            at = at * pose(&j.origin) * UnitQuaternion::from_axis_angle(&axis, q[k]);
+            let want = to_urdf * expected[k];
+            assert!(
+                (at.translation.vector - want.translation.vector).norm() < 1e-9,
+                "leg {l} link {k}: {:?} vs {:?}",
+                at.translation,
+                want.translation
+            );
+            assert!(
+                at.rotation.angle_to(&want.rotation) < 1e-9,
+                "leg {l} link {k}"
+            );
+        }
+    }
+    // The body's mass sits where the model's does, turned into URDF axes (y up -> z up).
+    let body = link("body");
+    let com = urdf_from_model() * plan.body_mass.com;
+    assert!((v(&body.inertial.origin.xyz.0) - com).norm() < 1e-12);
+}
+
+#[test]
+fn max_exports_to_urdf_that_parses_and_round_trips() {
+    check(&design("../designs/max.json"));
+}
+
+#[test]
+fn the_hand_calculated_hexapod_round_trips_too() {
+    check(&design("tests/fixtures/hand_calc.json"));
+}

@@ -1,0 +1,240 @@
+//! What `strider-coordinator export` writes: every elite, one row each, with its cell,
+//! features, fitness, trial statistics and full genome (CSV or JSON), and how an elite is
+//! named on the command line (`RUN:CELL` or `best`). Plain functions over plain data.
+
+use crate::db::RunRecord;
+use std::collections::HashMap;
+use std::fmt::Write;
+use strider_common::features::FEATURE_NAMES;
+use strider_common::genome::ParamVector;
+use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
+use strider_common::{CellIndex, Features, Genome, Outcome, TrialStats};
+
+/// One elite as exported.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EliteRow {
+    /// Run id.
+    pub run: i64,
+    /// The run's scheme name.
+    pub scheme: String,
+    /// The run's repeat number.
+    pub repeat: u32,
+    /// Its cell.
+    pub cell: CellIndex,
+    /// Its candidate number in the run.
+    pub candidate: u64,
+    /// 1 / cost of transport.
+    pub fitness: f64,
+    /// Features d1..d6 and the trial's figures (from its outcome).
+    pub measured: Option<(Features, TrialStats)>,
+    /// The whole genome, with the controller that earned the fitness.
+    pub genome: Genome,
+}
+
+/// The rows of `run`'s library in cell order; `outcomes` maps a cell to its elite's
+/// outcome (as stored with the candidate).
+pub fn rows(run: &RunRecord, outcomes: &HashMap<CellIndex, Outcome>) -> Vec<EliteRow> {
+    run.library
+        .elites()
+        .map(|(cell, e)| EliteRow {
+            run: run.id,
+            scheme: run.spec.scheme.name().to_string(),
+            repeat: run.spec.repeat,
+            cell,
+            candidate: e.candidate.0,
+            fitness: e.fitness,
+            measured: match outcomes.get(&cell) {
+                Some(Outcome::Valid {
+                    features, stats, ..
+                }) => Some((*features, *stats)),
+                _ => None,
+            },
+            genome: e.genome,
+        })
+        .collect()
+}
+
+/// Names of the trial statistics columns, in order.
+pub const STAT_NAMES: [&str; 6] = [
+    "distance",
+    "energy",
+    "speed",
+    "mass",
+    "cost_of_transport",
+    "duration",
+];
+
+fn stat_values(s: &TrialStats) -> [f64; 6] {
+    [
+        s.distance,
+        s.energy,
+        s.speed,
+        s.mass,
+        s.cost_of_transport,
+        s.duration,
+    ]
+}
+
+/// The CSV header: identity, fitness, features, statistics, then every genome parameter
+/// by its table name.
+pub fn csv_header() -> String {
+    let mut h = String::from("run,scheme,repeat,cell,candidate,fitness");
+    for name in FEATURE_NAMES.iter().chain(&STAT_NAMES) {
+        h.push(',');
+        h.push_str(name);
+    }
+    for p in MORPHOLOGY_PARAMS.iter().chain(CONTROLLER_PARAMS) {
+        h.push(',');
+        h.push_str(p.name);
+    }
+    h
+}
+
+/// One CSV line (features and statistics empty when the outcome is missing).
+pub fn csv_line(r: &EliteRow) -> String {
+    let mut line = format!(
+        "{},{},{},{},{},{}",
+        r.run, r.scheme, r.repeat, r.cell.0, r.candidate, r.fitness
+    );
+    match &r.measured {
+        Some((f, s)) => {
+            for v in f.0.iter().chain(&stat_values(s)) {
+                let _ = write!(line, ",{v}");
+            }
+        }
+        None => line.push_str(&",".repeat(FEATURE_NAMES.len() + STAT_NAMES.len())),
+    }
+    let values = r
+        .genome
+        .morphology
+        .values()
+        .iter()
+        .zip(MORPHOLOGY_PARAMS)
+        .chain(r.genome.controller.values().iter().zip(CONTROLLER_PARAMS));
+    for (v, spec) in values {
+        match spec.kind {
+            ParamKind::Integer => {
+                let _ = write!(line, ",{}", *v as i64);
+            }
+            ParamKind::Real => {
+                let _ = write!(line, ",{v}");
+            }
+        }
+    }
+    line
+}
+
+/// One elite as a JSON object.
+pub fn json(r: &EliteRow) -> serde_json::Value {
+    let (features, stats) = match &r.measured {
+        Some((f, s)) => (
+            serde_json::Value::Object(
+                FEATURE_NAMES
+                    .iter()
+                    .zip(f.0)
+                    .map(|(n, v)| (n.to_string(), v.into()))
+                    .collect(),
+            ),
+            serde_json::to_value(s).unwrap_or(serde_json::Value::Null),
+        ),
+        None => (serde_json::Value::Null, serde_json::Value::Null),
+    };
+    serde_json::json!({
+        "cell": r.cell.0,
+        "candidate": r.candidate,
+        "fitness": r.fitness,
+        "features": features,
+        "stats": stats,
+        "genome": r.genome,
+    })
+}
+
+/// An elite named on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EliteChoice {
+    /// The fittest elite (of one run, or of the experiment).
+    Best,
+    /// Run and cell, written `RUN:CELL`.
+    At {
+        /// Run id.
+        run: i64,
+        /// Cell index.
+        cell: u32,
+    },
+}
+
+impl std::str::FromStr for EliteChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "best" {
+            return Ok(EliteChoice::Best);
+        }
+        let bad = || format!("elite `{s}`: expected RUN:CELL (for example 0:1234) or `best`");
+        let (run, cell) = s.split_once(':').ok_or_else(bad)?;
+        Ok(EliteChoice::At {
+            run: run.trim().parse().map_err(|_| bad())?,
+            cell: cell.trim().parse().map_err(|_| bad())?,
+        })
+    }
+}
+
+/// Finds the chosen elite among `runs`: `(run id, cell, fitness, genome)`.
+pub fn find(
+    runs: &[RunRecord],
+    choice: EliteChoice,
+) -> Result<(i64, CellIndex, f64, Genome), String> {
+    match choice {
+        EliteChoice::Best => runs
+            .iter()
+            .flat_map(|r| r.library.elites().map(move |(c, e)| (r.id, c, e)))
+            .max_by(|a, b| a.2.fitness.total_cmp(&b.2.fitness))
+            .map(|(run, c, e)| (run, c, e.fitness, e.genome))
+            .ok_or_else(|| "the library is empty".to_string()),
+        EliteChoice::At { run, cell } => {
+            let r = runs
+                .iter()
+                .find(|r| r.id == run)
+                .ok_or_else(|| format!("the database has no run {run}"))?;
+            r.library
+                .elites()
+                .find(|(c, _)| c.0 == cell)
+                .map(|(c, e)| (run, c, e.fitness, e.genome))
+                .ok_or_else(|| format!("run {run} has no elite in cell {cell}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn elites_are_named_by_run_and_cell_or_best() {
+        assert_eq!("best".parse(), Ok(EliteChoice::Best));
+        assert_eq!("2:1234".parse(), Ok(EliteChoice::At { run: 2, cell: 1234 }));
+        let err = "1234".parse::<EliteChoice>().unwrap_err();
+        assert!(err.contains("expected RUN:CELL"), "{err}");
+        assert!("a:b".parse::<EliteChoice>().is_err());
+    }
+
+    #[test]
+    fn the_csv_header_and_a_line_without_outcome_have_the_same_columns() {
+        let header = csv_header();
+        assert!(header.starts_with("run,scheme,repeat,cell,candidate,fitness,total_leg_length"));
+        let genome = Genome::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"),
+        )
+        .unwrap();
+        let row = EliteRow {
+            run: 0,
+            scheme: "static".into(),
+            repeat: 0,
+            cell: CellIndex(7),
+            candidate: 3,
+            fitness: 1.5,
+            measured: None,
+            genome,
+        };
+        assert_eq!(csv_line(&row).split(',').count(), header.split(',').count());
+    }
+}

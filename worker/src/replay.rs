@@ -1,0 +1,36 @@
+//! A trial's replay: the body pose and joint angles sampled at a steady frame rate while
+//! the trial runs, drawn as an animated side view (`strider_common::drawing`).
+
+use crate::sim::trial::{Observer, Sample};
+use strider_common::drawing::Frame3;
+use strider_common::params::LINKS_PER_LEG;
+
+/// Frames per simulated second in replays: smooth enough to read the gait, small files.
+pub const FRAMES_PER_SECOND: f64 = 20.0;
+
+/// Collects frames of a trial.
+#[derive(Default)]
+pub struct Replay {
+    /// The frames so far, in time order.
+    pub frames: Vec<Frame3>,
+}
+
+impl Observer for Replay {
+    fn control_step(&mut self, s: &Sample<'_>) {
+        let due = self
+            .frames
+            .last()
+            .is_none_or(|f| s.time - f.time >= 1.0 / FRAMES_PER_SECOND - 1e-9);
+        if due {
+            self.frames.push(Frame3 {
+                time: s.time,
+                body: s.body,
+                angles: s
+                    .angles
+                    .chunks_exact(LINKS_PER_LEG)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect(),
+            });
+        }
+    }
+}
