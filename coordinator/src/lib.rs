@@ -6,5 +6,6 @@ pub mod db;
 pub mod evolution;
 pub mod export;
 pub mod library;
+pub mod report;
 pub mod scheduler;
 pub mod service;

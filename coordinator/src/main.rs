@@ -13,10 +13,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 use strider_common::Experiment;
+use strider_common::Genome;
 use strider_common::{BodyPlan, CellIndex, Outcome};
 use strider_coordinator::analysis::summary::{summarise, RunResult};
 use strider_coordinator::db::{build_id, first_difference, Db, EliteFilter, RunRecord};
 use strider_coordinator::export::{self, EliteChoice};
+use strider_coordinator::report::{png, Inputs, RunData};
 use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
 use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
@@ -131,6 +133,19 @@ enum Command {
         /// revolute joints with axes and the motors' limits).
         #[arg(long, requires = "elite")]
         urdf: Option<PathBuf>,
+    },
+    /// Write the experiment's report: one self-contained HTML page, its pictures as SVG and
+    /// PNG, its tables as CSV.
+    Report {
+        /// Database file.
+        #[arg(long)]
+        db: PathBuf,
+        /// Directory to write into (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// The run whose library is drawn (its id; the one with the best design by default).
+        #[arg(long)]
+        run: Option<i64>,
     },
     /// Summarise an experiment: final figures per scheme, Mann-Whitney tests between
     /// schemes, the top designs' mean features and controllers, and the design rules.
@@ -306,6 +321,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             _ => runtime()?.block_on(export(&db, run, format)),
         },
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
+        Command::Report { db, out, run } => runtime()?.block_on(report(&db, &out, run)),
         Command::Check { experiment } => check(&experiment),
     };
     done.map(|()| ExitCode::SUCCESS)
@@ -570,6 +586,71 @@ async fn export_urdf(
         plan.total_mass(),
         plan.legs.len(),
         urdf.display()
+    );
+    Ok(())
+}
+
+/// The reference design MAX, marked on library maps.
+const MAX_DESIGN: &str = include_str!("../../designs/max.json");
+
+async fn report(path: &Path, out: &Path, run: Option<i64>) -> anyhow::Result<()> {
+    let (db, experiment) = open_existing(path).await?;
+    let mut runs = Vec::new();
+    for r in db.runs().await? {
+        let generations = db
+            .generations(r.id)
+            .await?
+            .into_iter()
+            .map(|(g, _, s)| (g, s))
+            .collect();
+        runs.push(RunData {
+            id: r.id,
+            scheme: r.spec.scheme,
+            repeat: r.spec.repeat,
+            library: r.library,
+            generations,
+        });
+    }
+    if let Some(id) = run {
+        if !runs.iter().any(|r| r.id == id) {
+            bail!("the database has no run {id}");
+        }
+    }
+    let chosen = run.unwrap_or_else(|| {
+        runs.iter()
+            .flat_map(|r| r.library.elites().map(move |(_, e)| (r.id, e.fitness)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(0, |(id, _)| id)
+    });
+    let max: Genome = serde_json::from_str(MAX_DESIGN).context("the built-in MAX design")?;
+    let report = strider_coordinator::report::build(&Inputs {
+        experiment: &experiment,
+        runs: &runs,
+        chosen,
+        reference: Some((&max, "MAX")),
+    });
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let write = |name: &str, bytes: &[u8]| {
+        let p = out.join(name);
+        std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))
+    };
+    write("report.html", report.html.as_bytes())?;
+    let fonts = png::fonts();
+    if fonts.is_empty() {
+        eprintln!("warning: no system fonts found: the PNG pictures will have no text (the SVG and HTML are complete); install fonts-dejavu-core");
+    }
+    for p in &report.pictures {
+        write(&format!("{}.svg", p.name), p.svg.as_bytes())?;
+        write(&format!("{}.png", p.name), &png::render(&p.svg, &fonts)?)?;
+    }
+    for t in &report.tables {
+        write(&format!("{}.csv", t.name), t.csv.as_bytes())?;
+    }
+    eprintln!(
+        "wrote {} ({} pictures as SVG and PNG, {} tables as CSV)",
+        out.join("report.html").display(),
+        report.pictures.len(),
+        report.tables.len()
     );
     Ok(())
 }

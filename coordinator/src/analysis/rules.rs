@@ -46,13 +46,13 @@ impl fmt::Display for Rule {
         write!(f, "{} = {:.4}", FEATURE_NAMES[k], self.means[k])?;
         for &(j, a) in &self.terms {
             let sign = if a < 0.0 { '-' } else { '+' };
-            write!(
-                f,
-                " {sign} {:.3e} (d{} - {:.4})",
-                a.abs(),
-                j + 1,
-                self.means[j]
-            )?;
+            // (d - m) for a positive mean, (d + |m|) for a negative one.
+            let (op, m) = if self.means[j] < 0.0 {
+                ('+', -self.means[j])
+            } else {
+                ('-', self.means[j])
+            };
+            write!(f, " {sign} {:.3e} (d{} {op} {m:.4})", a.abs(), j + 1)?;
         }
         write!(f, "   [mean error {:.1} %]", 100.0 * self.mean_error)
     }

@@ -1,0 +1,596 @@
+//! `strider-coordinator report`: the whole experiment for a robot designer, as one
+//! self-contained HTML page (pictures inline), the pictures as separate SVG files (the
+//! CLI adds PNG), and the tables as CSV. Plain functions from plain data to text; reading
+//! the database and writing files is the CLI's job.
+
+pub mod charts;
+pub mod maps;
+pub mod png;
+pub mod svg;
+
+use crate::analysis::mann_whitney::MannWhitney;
+use crate::analysis::rules::Rule;
+use crate::analysis::summary::{summarise, RunResult, Summary};
+use crate::library::{GenerationStats, Library};
+use charts::{line_chart, Series, SCHEME_COLOURS};
+use maps::{marginals_svg, stacking_svg, Scale};
+use std::fmt::Write;
+use strider_common::drawing::design_svg;
+use strider_common::features::FEATURE_NAMES;
+use strider_common::params::CONTROLLER_PARAMS;
+use strider_common::{BodyPlan, Experiment, Features, Genome, Scheme, StartPose};
+use svg::escape;
+
+/// One run as the report reads it.
+pub struct RunData {
+    /// Run id.
+    pub id: i64,
+    /// Its scheme.
+    pub scheme: Scheme,
+    /// Its repeat number.
+    pub repeat: u32,
+    /// Its library now.
+    pub library: Library,
+    /// Every committed generation's statistics, in order.
+    pub generations: Vec<(u32, GenerationStats)>,
+}
+
+/// A picture: file stem, caption, SVG.
+pub struct Picture {
+    /// File name without extension.
+    pub name: String,
+    /// What it shows, in words.
+    pub caption: String,
+    /// The SVG document.
+    pub svg: String,
+}
+
+/// A table: file stem and CSV text.
+pub struct Table {
+    /// File name without extension.
+    pub name: String,
+    /// CSV text with a header line.
+    pub csv: String,
+}
+
+/// Everything the report writes.
+pub struct Report {
+    /// The page.
+    pub html: String,
+    /// The pictures (also inline in the page).
+    pub pictures: Vec<Picture>,
+    /// The tables (also on the page).
+    pub tables: Vec<Table>,
+}
+
+/// The section headings of the page, in order (tests check each is there).
+pub const SECTIONS: [&str; 7] = [
+    "Progress per generation",
+    "Comparing schemes",
+    "The library of one run",
+    "Best designs per pair of features",
+    "What the best designs look like",
+    "Design rules",
+    "Drawings of chosen designs",
+];
+
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let sd = if v.len() > 1 {
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    (m, sd)
+}
+
+/// Per scheme, one series of `figure` over generations (mean and sd over repeats).
+fn series(e: &Experiment, runs: &[RunData], figure: fn(&GenerationStats) -> f64) -> Vec<Series> {
+    e.schemes
+        .iter()
+        .enumerate()
+        .map(|(k, &scheme)| {
+            let mine: Vec<&RunData> = runs.iter().filter(|r| r.scheme == scheme).collect();
+            let last = mine
+                .iter()
+                .filter_map(|r| r.generations.last().map(|g| g.0))
+                .max()
+                .unwrap_or(0);
+            let points = (0..=last)
+                .filter_map(|g| {
+                    let v: Vec<f64> = mine
+                        .iter()
+                        .filter_map(|r| r.generations.iter().find(|x| x.0 == g))
+                        .map(|x| figure(&x.1))
+                        .collect();
+                    (!v.is_empty()).then(|| {
+                        let (m, sd) = mean_sd(&v);
+                        (f64::from(g), m, sd)
+                    })
+                })
+                .collect();
+            Series {
+                name: scheme.name().to_string(),
+                colour: SCHEME_COLOURS[k % SCHEME_COLOURS.len()],
+                points,
+            }
+        })
+        .collect()
+}
+
+/// The figures of Figure 3: (file stem, title, axis label, figure).
+type Figure = (
+    &'static str,
+    &'static str,
+    &'static str,
+    fn(&GenerationStats) -> f64,
+);
+const FIGURES: [Figure; 4] = [
+    (
+        "best_fitness",
+        "Best fitness in the library",
+        "fitness",
+        |s| s.max_fitness,
+    ),
+    (
+        "mean_fitness",
+        "Mean fitness of the library",
+        "fitness",
+        |s| s.mean_fitness,
+    ),
+    (
+        "lowest_fitness",
+        "Lowest fitness in the library",
+        "fitness",
+        |s| s.min_fitness,
+    ),
+    ("coverage", "Coverage (cells filled)", "coverage, %", |s| {
+        100.0 * s.coverage
+    }),
+];
+
+fn html_table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
+    out.push_str("<table>\n<tr>");
+    for h in header {
+        let _ = write!(out, "<th>{}</th>", escape(h));
+    }
+    out.push_str("</tr>\n");
+    for r in rows {
+        out.push_str("<tr>");
+        for c in r {
+            let _ = write!(out, "<td>{}</td>", escape(c));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</table>\n");
+}
+
+fn csv(header: &[String], rows: &[Vec<String>]) -> String {
+    let quote = |s: &String| {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.clone()
+        }
+    };
+    let mut out = header.iter().map(quote).collect::<Vec<_>>().join(",");
+    out.push('\n');
+    for r in rows {
+        out.push_str(&r.iter().map(quote).collect::<Vec<_>>().join(","));
+        out.push('\n');
+    }
+    out
+}
+
+fn words(t: &MannWhitney) -> String {
+    if t.significant(0.05) {
+        "significant at 0.05 (p < 0.05)".into()
+    } else {
+        "not significant at 0.05".into()
+    }
+}
+
+/// The rule as the paper's Table 6 writes it: target = mean + terms.
+fn formula(r: &Rule) -> String {
+    r.to_string()
+        .split("   [mean error")
+        .next()
+        .unwrap_or_default()
+        .to_string()
+}
+
+/// What the report needs besides the runs.
+pub struct Inputs<'a> {
+    /// The experiment.
+    pub experiment: &'a Experiment,
+    /// Every run.
+    pub runs: &'a [RunData],
+    /// The run whose library is drawn (its id).
+    pub chosen: i64,
+    /// The reference design marked on the library map, with its name.
+    pub reference: Option<(&'a Genome, &'a str)>,
+}
+
+/// Builds the report.
+pub fn build(inp: &Inputs<'_>) -> Report {
+    let e = inp.experiment;
+    let runs = inp.runs;
+    let payload = e.brief.payload;
+    let mut pictures = Vec::new();
+    let mut tables = Vec::new();
+    let mut page = String::new();
+
+    // 1. Progress per generation.
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[0]);
+    page.push_str("<p>For each scheme, the mean over its repeats (line) and one standard deviation either side (band).</p>\n");
+    let mut gen_rows = Vec::new();
+    for (stem, title, label, figure) in FIGURES {
+        let s = series(e, runs, figure);
+        for sc in &s {
+            for &(g, m, sd) in &sc.points {
+                gen_rows.push(vec![
+                    sc.name.clone(),
+                    stem.to_string(),
+                    format!("{g}"),
+                    format!("{m}"),
+                    format!("{sd}"),
+                ]);
+            }
+        }
+        pictures.push(Picture {
+            name: stem.to_string(),
+            caption: format!("{title}, per generation: mean ± sd over repeats."),
+            svg: line_chart(title, label, &s),
+        });
+    }
+    tables.push(Table {
+        name: "per_generation".into(),
+        csv: csv(
+            &["scheme", "figure", "generation", "mean", "sd"].map(String::from),
+            &gen_rows,
+        ),
+    });
+    for p in &pictures {
+        push_picture(&mut page, p);
+    }
+
+    // 2. Comparing schemes.
+    let finished: Vec<RunResult<'_>> = runs
+        .iter()
+        .filter_map(|r| {
+            r.generations.last().map(|(_, last)| RunResult {
+                scheme: r.scheme,
+                library: &r.library,
+                last: *last,
+            })
+        })
+        .collect();
+    let summary: Summary = summarise(&finished, &e.schemes, payload);
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[1]);
+    let header: Vec<String> = [
+        "scheme",
+        "repeats",
+        "best fitness (mean)",
+        "best fitness (sd)",
+        "coverage % (mean)",
+        "coverage % (sd)",
+    ]
+    .map(String::from)
+    .to_vec();
+    let rows: Vec<Vec<String>> = summary
+        .schemes
+        .iter()
+        .map(|s| {
+            vec![
+                s.scheme.name().into(),
+                s.repeats.to_string(),
+                format!("{:.4}", s.best.mean),
+                format!("{:.4}", s.best.sd),
+                format!("{:.3}", 100.0 * s.coverage.mean),
+                format!("{:.3}", 100.0 * s.coverage.sd),
+            ]
+        })
+        .collect();
+    page.push_str("<p>The library at the end of each run, per scheme.</p>\n");
+    html_table(&mut page, &header, &rows);
+    tables.push(Table {
+        name: "final_by_scheme".into(),
+        csv: csv(&header, &rows),
+    });
+    let header: Vec<String> = [
+        "schemes",
+        "measure",
+        "U",
+        "p (two-sided)",
+        "method",
+        "in words",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut rows = Vec::new();
+    for c in &summary.comparisons {
+        for (measure, t) in [
+            ("final best fitness", &c.best),
+            ("final coverage", &c.coverage),
+        ] {
+            rows.push(vec![
+                format!("{} vs {}", c.schemes.0.name(), c.schemes.1.name()),
+                measure.into(),
+                format!("{}", t.u1.min(t.u2)),
+                format!("{:.4}", t.p),
+                format!("{:?}", t.method).to_lowercase(),
+                words(t),
+            ]);
+        }
+    }
+    page.push_str("<p>Mann-Whitney U tests between every pair of schemes (two-sided, tie-corrected; exact for small samples without ties, normal approximation otherwise).</p>\n");
+    if rows.is_empty() {
+        page.push_str("<p>Only one scheme: nothing to compare.</p>\n");
+    }
+    html_table(&mut page, &header, &rows);
+    tables.push(Table {
+        name: "mann_whitney".into(),
+        csv: csv(&header, &rows),
+    });
+
+    // 3 and 4. One run's library.
+    let hi = runs
+        .iter()
+        .flat_map(|r| r.library.elites().map(|(_, el)| el.fitness))
+        .fold(0.0, f64::max);
+    let scale = Scale { lo: 0.0, hi };
+    let chosen = runs.iter().find(|r| r.id == inp.chosen).or(runs.first());
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[2]);
+    if let Some(run) = chosen {
+        let marked = inp.reference.and_then(|(g, name)| {
+            let plan = BodyPlan::new(&g.morphology, payload);
+            e.features
+                .cell_of(&Features::of(&g.morphology, &plan))
+                .ok()
+                .map(|c| (c, name))
+        });
+        let title = format!(
+            "Run {} ({}, repeat {}): {} designs in {} cells",
+            run.id,
+            run.scheme.name(),
+            run.repeat,
+            run.library.len(),
+            e.features.cell_count()
+        );
+        let stack = Picture {
+            name: "library_map".into(),
+            caption: format!("{title}. Each small square is one cell of the six-dimensional map, coloured by the fitness of its design (grey: no design). Features nest from the outside in: d1 then d3 then d5 across, d2 then d4 then d6 up; heavy lines separate the outer blocks.{}", marked.map_or(String::new(), |(_, n)| format!(" The red ring marks {n}."))),
+            svg: stacking_svg(&e.features, &run.library, scale, marked, &title),
+        };
+        push_picture(&mut page, &stack);
+        pictures.push(stack);
+        let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[3]);
+        let marg = Picture {
+            name: "pair_maps".into(),
+            caption: "For every pair of features, the best fitness found for each pair of their bins (same colour scale; grey: no design).".into(),
+            svg: marginals_svg(&e.features, &run.library, scale, &format!("Run {}: best fitness per pair of features", run.id)),
+        };
+        push_picture(&mut page, &marg);
+        pictures.push(marg);
+    } else {
+        page.push_str("<p>No run has a library yet.</p>\n");
+    }
+
+    // 5. Table 5 and the controllers.
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[4]);
+    let mut header = vec!["scheme".to_string(), "designs".to_string()];
+    header.extend(
+        FEATURE_NAMES
+            .iter()
+            .enumerate()
+            .map(|(i, n)| format!("d{} {n}", i + 1)),
+    );
+    let rows: Vec<Vec<String>> = summary
+        .schemes
+        .iter()
+        .map(|s| {
+            let mut r = vec![s.scheme.name().into(), s.top_designs.to_string()];
+            r.extend(s.top_features.iter().map(|v| format!("{v:.4}")));
+            r
+        })
+        .collect();
+    page.push_str("<p>Mean feature values of the top 10 % of designs of each scheme, pooled over repeats (the paper's Table 5).</p>\n");
+    html_table(&mut page, &header, &rows);
+    tables.push(Table {
+        name: "top_designs_features".into(),
+        csv: csv(&header, &rows),
+    });
+    let mut header = vec!["scheme".to_string()];
+    header.extend(CONTROLLER_PARAMS.iter().map(|p| p.name.to_string()));
+    let rows: Vec<Vec<String>> = summary
+        .schemes
+        .iter()
+        .map(|s| {
+            let mut r = vec![s.scheme.name().into()];
+            r.extend(s.best_controller.iter().map(|v| format!("{v:.4}")));
+            r
+        })
+        .collect();
+    page.push_str("<p>Mean controller of the best design of each repeat, per scheme.</p>\n");
+    html_table(&mut page, &header, &rows);
+    tables.push(Table {
+        name: "best_controllers".into(),
+        csv: csv(&header, &rows),
+    });
+
+    // 6. Rules.
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[5]);
+    page.push_str("<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others; <em>d1</em> to <em>d6</em> are the features in the order above. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped.</p>\n");
+    let header: Vec<String> = ["scheme", "kept", "rule", "spread", "mean error %"]
+        .map(String::from)
+        .to_vec();
+    let mut rows = Vec::new();
+    for s in &summary.schemes {
+        if let Some(rules) = &s.rules {
+            for (kept, list) in [("kept", &rules.kept), ("dropped", &rules.dropped)] {
+                for r in list {
+                    rows.push(vec![
+                        s.scheme.name().into(),
+                        kept.into(),
+                        formula(r),
+                        format!("{:.3}", r.spread),
+                        format!("{:.2}", 100.0 * r.mean_error),
+                    ]);
+                }
+            }
+        }
+    }
+    if rows.is_empty() {
+        page.push_str("<p>Too few designs to mine rules.</p>\n");
+    }
+    html_table(&mut page, &header, &rows);
+    tables.push(Table {
+        name: "design_rules".into(),
+        csv: csv(&header, &rows),
+    });
+
+    // 7. Drawings.
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);
+    page.push_str("<p>Side, front and top views of each design at its start pose, to scale (the bar is 1 m); right legs blue, left legs orange.</p>\n");
+    if let Some(run) = chosen {
+        for (k, (label, cell, el)) in chosen_designs(&e.features, &run.library)
+            .into_iter()
+            .enumerate()
+        {
+            let plan = BodyPlan::new(&el.genome.morphology, payload);
+            let pose = StartPose::new(&plan, &el.genome.controller);
+            let title = format!(
+                "{label}: run {} cell {}, fitness {:.3}, {} legs, {:.1} kg, {:.2} m tall",
+                run.id,
+                cell.0,
+                el.fitness,
+                plan.legs.len(),
+                plan.total_mass(),
+                pose.height
+            );
+            let p = Picture {
+                name: format!("design_{}", k + 1),
+                caption: title.clone(),
+                svg: design_svg(&plan, &pose, &title),
+            };
+            push_picture(&mut page, &p);
+            pictures.push(p);
+        }
+    }
+
+    let html = page_html(e, runs, &page, &tables);
+    Report {
+        html,
+        pictures,
+        tables,
+    }
+}
+
+/// The best design of the library, then the fittest of each other legs-per-side bin
+/// (d3), up to four in all: designs spread across the map.
+fn chosen_designs<'a>(
+    grid: &strider_common::FeatureGrid,
+    library: &'a Library,
+) -> Vec<(String, strider_common::CellIndex, &'a crate::library::Elite)> {
+    let mut best_per_bin: Vec<Option<(strider_common::CellIndex, &crate::library::Elite)>> =
+        vec![None; grid.bins as usize];
+    for (cell, el) in library.elites() {
+        let slot = &mut best_per_bin[grid.bins_of_cell(cell).0[2] as usize];
+        if slot.is_none_or(|(_, b)| el.fitness > b.fitness) {
+            *slot = Some((cell, el));
+        }
+    }
+    let mut picks: Vec<_> = best_per_bin.into_iter().flatten().collect();
+    picks.sort_by(|a, b| b.1.fitness.total_cmp(&a.1.fitness));
+    picks
+        .into_iter()
+        .take(4)
+        .enumerate()
+        .map(|(k, (c, el))| {
+            let label = if k == 0 {
+                "The best design".to_string()
+            } else {
+                format!("Best with d3 in bin {}", grid.bins_of_cell(c).0[2])
+            };
+            (label, c, el)
+        })
+        .collect()
+}
+
+fn push_picture(page: &mut String, p: &Picture) {
+    let _ = writeln!(
+        page,
+        "<figure id=\"{}\">\n{}<figcaption>{} <a href=\"{}.svg\">SVG</a> · <a href=\"{}.png\">PNG</a></figcaption>\n</figure>",
+        p.name,
+        p.svg,
+        escape(&p.caption),
+        p.name,
+        p.name
+    );
+}
+
+fn page_html(e: &Experiment, runs: &[RunData], body: &str, tables: &[Table]) -> String {
+    let finished = runs
+        .iter()
+        .filter(|r| {
+            r.generations
+                .last()
+                .is_some_and(|g| g.0 >= e.run.generations)
+        })
+        .count();
+    let mut links = String::new();
+    for t in tables {
+        let _ = write!(links, "<a href=\"{}.csv\">{}.csv</a> ", t.name, t.name);
+    }
+    format!(
+        r#"<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>Strider report: {name}</title>
+<style>
+body {{ font-family: sans-serif; max-width: 1200px; margin: 2em auto; color: #222; }}
+table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
+th, td {{ border: 1px solid #bbb; padding: 3px 8px; text-align: right; font-size: 90%; }}
+th {{ background: #f0f0f0; }}
+td:first-child, th:first-child {{ text-align: left; }}
+figure {{ margin: 1em 0 2em; overflow-x: auto; }}
+figcaption {{ font-size: 90%; color: #444; max-width: 900px; }}
+</style>
+</head>
+<body>
+<h1>Strider report: experiment “{name}”</h1>
+<p>{runs} runs ({schemes}; {repeats} repeats each), {finished} finished. Initial population {init}, then up to {gens} generations of {off}. Fitness is 1 / cost of transport: higher walks further on less energy. Tables as CSV: {links}</p>
+{body}
+</body>
+</html>
+"#,
+        name = escape(&e.name),
+        runs = runs.len(),
+        schemes = e
+            .schemes
+            .iter()
+            .map(|s| s.name())
+            .collect::<Vec<_>>()
+            .join(", "),
+        repeats = e.repeats,
+        init = e.run.initial_population,
+        gens = e.run.generations,
+        off = e.run.offspring_per_generation,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_quotes_what_needs_quoting() {
+        let out = csv(
+            &["a".into(), "b".into()],
+            &[vec!["x, y".into(), "say \"hi\"".into()]],
+        );
+        assert_eq!(out, "a,b\n\"x, y\",\"say \"\"hi\"\"\"\n");
+    }
+}

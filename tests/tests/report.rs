@@ -1,0 +1,130 @@
+//! `strider-coordinator report` on a small real experiment (STATIC and GENOME, three
+//! repeats each): every section, every picture (inline, and as SVG and PNG files), every
+//! table as CSV, and no reference the page cannot resolve.
+
+use strider_coordinator::report::SECTIONS;
+use strider_tests::{run, temp_dir};
+
+const EXPERIMENT: &str = "tests/fixtures/report.toml";
+
+/// Every value of `attr="..."` in the page.
+fn attribute_values<'a>(html: &'a str, attr: &str) -> Vec<&'a str> {
+    let key = format!("{attr}=\"");
+    html.match_indices(&key)
+        .map(|(i, _)| {
+            let rest = &html[i + key.len()..];
+            &rest[..rest.find('"').unwrap()]
+        })
+        .collect()
+}
+
+#[test]
+fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
+    let dir = temp_dir("report");
+    let db = dir.join("report.db");
+    let out = run(
+        "strider-coordinator",
+        &[
+            "run",
+            EXPERIMENT,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let pages = dir.join("report");
+    let out = run(
+        "strider-coordinator",
+        &[
+            "report",
+            "--db",
+            db.to_str().unwrap(),
+            "--out",
+            pages.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(pages.join("report.html")).unwrap();
+
+    for section in SECTIONS {
+        assert!(
+            html.contains(&format!("<h2>{section}</h2>")),
+            "no section {section}"
+        );
+    }
+    // Pictures: the four curves, the library map, the pair maps, and drawings.
+    let figures = attribute_values(&html, "figure id");
+    for name in [
+        "best_fitness",
+        "mean_fitness",
+        "lowest_fitness",
+        "coverage",
+        "library_map",
+        "pair_maps",
+        "design_1",
+    ] {
+        assert!(figures.contains(&name), "no picture {name}: {figures:?}");
+    }
+    // Each inline (self-contained) and also a file of each kind.
+    assert_eq!(html.matches("<svg ").count(), figures.len());
+    for name in &figures {
+        let svg = std::fs::read_to_string(pages.join(format!("{name}.svg"))).unwrap();
+        assert!(
+            svg.starts_with("<svg ") && svg.trim_end().ends_with("</svg>"),
+            "{name}.svg"
+        );
+        let png = std::fs::read(pages.join(format!("{name}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}.png is not a PNG");
+    }
+    // Nothing to fetch: no src, and every link names a file the report wrote.
+    assert!(attribute_values(&html, "src").is_empty());
+    let links = attribute_values(&html, "href");
+    assert!(links.len() >= 2 * figures.len() + 6, "{links:?}");
+    for link in links {
+        assert!(pages.join(link).is_file(), "broken link {link}");
+    }
+    // The tables hold what the designer reads.
+    let mw = std::fs::read_to_string(pages.join("mann_whitney.csv")).unwrap();
+    assert_eq!(mw.lines().count(), 3, "{mw}");
+    assert!(mw.contains("static vs genome,final best fitness"), "{mw}");
+    assert!(mw.contains("significant at 0.05"), "{mw}");
+    let table5 = std::fs::read_to_string(pages.join("top_designs_features.csv")).unwrap();
+    assert!(
+        table5.starts_with("scheme,designs,d1 total_leg_length"),
+        "{table5}"
+    );
+    assert_eq!(table5.lines().count(), 3, "{table5}");
+    let gens = std::fs::read_to_string(pages.join("per_generation.csv")).unwrap();
+    // 2 schemes x 4 figures x generations 0..=3.
+    assert_eq!(gens.lines().count(), 1 + 2 * 4 * 4, "{gens}");
+    assert!(html.contains("The red ring marks MAX"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_report_of_a_missing_run_is_refused_by_name() {
+    let dir = temp_dir("report-refusal");
+    let out = run(
+        "strider-coordinator",
+        &[
+            "report",
+            "--db",
+            dir.join("none.db").to_str().unwrap(),
+            "--out",
+            dir.join("r").to_str().unwrap(),
+        ],
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no database at"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
