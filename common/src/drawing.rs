@@ -6,6 +6,7 @@
 use crate::body_plan::{BodyPlan, Side};
 use crate::params::LINKS_PER_LEG;
 use crate::pose::StartPose;
+use crate::xml::{escape, svg_document};
 use nalgebra::{Isometry3, Vector3};
 use std::fmt::Write;
 
@@ -233,12 +234,6 @@ fn scale_bar(out: &mut String, x: f64, y: f64) {
     );
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
 /// Side, front and top views of `parts` side by side, to one scale, with the ground, a
 /// 1 m bar and `title` (an SVG document).
 pub fn views_svg(parts: &[Part], title: &str) -> String {
@@ -274,16 +269,20 @@ pub fn views_svg(parts: &[Part], title: &str) -> String {
     let bar_y = top + height + 30.0;
     scale_bar(&mut body, MARGIN, bar_y);
     let total_height = bar_y + 20.0;
-    format!(
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{total_height:.0}" viewBox="0 0 {width:.0} {total_height:.0}">
-<rect width="100%" height="100%" fill="white"/>
-<text x="{MARGIN}" y="22" font-family="sans-serif" font-size="15">{}</text>
-{body}<text x="{:.1}" y="{:.1}" font-family="sans-serif" font-size="12" fill="#444">right legs blue, left legs orange; views to scale</text>
-</svg>
-"##,
-        escape(title),
+    let _ = writeln!(
+        body,
+        r##"<text x="{:.1}" y="{:.1}" font-family="sans-serif" font-size="12" fill="#444">right legs blue, left legs orange; views to scale</text>"##,
         MARGIN + PX_PER_M + 20.0,
         bar_y + 4.0
+    );
+    svg_document(
+        width,
+        total_height,
+        &format!(
+            r#"<text x="{MARGIN}" y="22" font-family="sans-serif" font-size="15">{}</text>
+{body}"#,
+            escape(title)
+        ),
     )
 }
 
@@ -358,13 +357,14 @@ pub fn replay_svg(plan: &BodyPlan, frames: &[Frame3], title: &str) -> String {
     let bar_y = frame.top + (e.3 - e.2) * PX_PER_M + 30.0;
     scale_bar(&mut body, MARGIN, bar_y);
     let height = bar_y + 20.0;
-    format!(
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}">
-<rect width="100%" height="100%" fill="white"/>
-<text x="{MARGIN}" y="18" font-family="sans-serif" font-size="15">{}</text>
-{body}</svg>
-"##,
-        escape(title)
+    svg_document(
+        width,
+        height,
+        &format!(
+            r#"<text x="{MARGIN}" y="18" font-family="sans-serif" font-size="15">{}</text>
+{body}"#,
+            escape(title)
+        ),
     )
 }
 

@@ -18,6 +18,7 @@ pub mod pose;
 pub mod rng;
 pub mod urdf;
 pub mod variation;
+pub mod xml;
 
 pub use body_plan::BodyPlan;
 pub use brief::DesignBrief;

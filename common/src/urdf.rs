@@ -10,6 +10,7 @@
 
 use crate::body_plan::{BodyPlan, LinkPlan};
 use crate::mass::MassProperties;
+use crate::xml::escape;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use std::fmt::Write;
 
@@ -51,7 +52,7 @@ pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
          each joint's comment (URDF has no field for it). -->",
         plan.payload_mass
     );
-    let _ = writeln!(out, r#"<robot name="{}">"#, xml_escape(name));
+    let _ = writeln!(out, r#"<robot name="{}">"#, escape(name));
 
     // The body, turned into URDF axes.
     let body_mass = rotate(&plan.body_mass, &to_urdf);
@@ -183,11 +184,4 @@ fn rotate(m: &MassProperties, r: &UnitQuaternion<f64>) -> MassProperties {
         com: r * m.com,
         inertia: rm.matrix() * m.inertia * rm.matrix().transpose(),
     }
-}
-
-fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }

@@ -66,6 +66,17 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Runs a workspace binary like [`run`] and panics with its stderr unless it succeeded.
+pub fn run_ok(name: &str, args: &[&str]) -> Output {
+    let out = run(name, args);
+    assert!(
+        out.status.success(),
+        "{name} {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Says a test is skipped because `what` is missing; fails instead when
 /// `STRIDER_REQUIRE_TOOLS` is set (CI sets it after installing everything: it never skips).
 pub fn skip_without(what: &str) {
@@ -101,7 +112,7 @@ pub fn secret_file(dir: &std::path::Path, secret: &str) -> PathBuf {
 pub fn library_run_builds(experiment: &str) -> serde_json::Value {
     let dir = temp_dir("reference");
     let db = dir.join("reference.db");
-    let out = run(
+    run_ok(
         "strider-coordinator",
         &[
             "run",
@@ -111,11 +122,6 @@ pub fn library_run_builds(experiment: &str) -> serde_json::Value {
             "--workers",
             "2",
         ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let e = export(&db);
     std::fs::remove_dir_all(&dir).expect("removing the reference's directory");

@@ -5,7 +5,7 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use strider_coordinator::db::Db;
-use strider_tests::{assert_same_library, binary, export, run, temp_dir, workspace_root};
+use strider_tests::{assert_same_library, binary, export, run, run_ok, temp_dir, workspace_root};
 
 const TINY: &str = "tests/fixtures/tiny.toml";
 
@@ -170,7 +170,7 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
         })
         .unwrap();
     let urdf = dir.join("best.urdf");
-    let out = run(
+    run_ok(
         "strider-coordinator",
         &[
             "export",
@@ -181,11 +181,6 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
             "--urdf",
             urdf.to_str().unwrap(),
         ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let robot = urdf_rs::read_file(&urdf).expect("the URDF parses");
     let mass: f64 = robot.links.iter().map(|l| l.inertial.mass.value).sum();

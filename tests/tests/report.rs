@@ -3,7 +3,7 @@
 //! table as CSV, and no reference the page cannot resolve.
 
 use strider_coordinator::report::SECTIONS;
-use strider_tests::{run, temp_dir};
+use strider_tests::{run, run_ok, temp_dir};
 
 const EXPERIMENT: &str = "tests/fixtures/report.toml";
 
@@ -22,7 +22,7 @@ fn attribute_values<'a>(html: &'a str, attr: &str) -> Vec<&'a str> {
 fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     let dir = temp_dir("report");
     let db = dir.join("report.db");
-    let out = run(
+    run_ok(
         "strider-coordinator",
         &[
             "run",
@@ -33,13 +33,8 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
             "2",
         ],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let pages = dir.join("report");
-    let out = run(
+    run_ok(
         "strider-coordinator",
         &[
             "report",
@@ -48,11 +43,6 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
             "--out",
             pages.to_str().unwrap(),
         ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let html = std::fs::read_to_string(pages.join("report.html")).unwrap();
 

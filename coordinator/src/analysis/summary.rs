@@ -37,7 +37,8 @@ pub struct MeanSd {
     pub sd: f64,
 }
 
-fn mean_sd(v: &[f64]) -> MeanSd {
+/// Mean and sample standard deviation of `v` (not empty).
+pub fn mean_sd(v: &[f64]) -> MeanSd {
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;
     let sd = if v.len() > 1 {

@@ -10,7 +10,7 @@ pub mod svg;
 
 use crate::analysis::mann_whitney::MannWhitney;
 use crate::analysis::rules::Rule;
-use crate::analysis::summary::{summarise, RunResult, Summary};
+use crate::analysis::summary::{mean_sd, summarise, RunResult, Summary};
 use crate::library::{GenerationStats, Library};
 use charts::{line_chart, Series, SCHEME_COLOURS};
 use maps::{marginals_svg, stacking_svg, Scale};
@@ -74,17 +74,6 @@ pub const SECTIONS: [&str; 7] = [
     "Drawings of chosen designs",
 ];
 
-fn mean_sd(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let sd = if v.len() > 1 {
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    (m, sd)
-}
-
 /// Per scheme, one series of `figure` over generations (mean and sd over repeats).
 fn series(e: &Experiment, runs: &[RunData], figure: fn(&GenerationStats) -> f64) -> Vec<Series> {
     e.schemes
@@ -105,8 +94,8 @@ fn series(e: &Experiment, runs: &[RunData], figure: fn(&GenerationStats) -> f64)
                         .map(|x| figure(&x.1))
                         .collect();
                     (!v.is_empty()).then(|| {
-                        let (m, sd) = mean_sd(&v);
-                        (f64::from(g), m, sd)
+                        let m = mean_sd(&v);
+                        (f64::from(g), m.mean, m.sd)
                     })
                 })
                 .collect();
@@ -164,6 +153,21 @@ fn html_table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
         out.push_str("</tr>\n");
     }
     out.push_str("</table>\n");
+}
+
+/// A table on the page and as `name`.csv.
+fn add_table(
+    page: &mut String,
+    tables: &mut Vec<Table>,
+    name: &str,
+    header: &[String],
+    rows: &[Vec<String>],
+) {
+    html_table(page, header, rows);
+    tables.push(Table {
+        name: name.into(),
+        csv: csv(header, rows),
+    });
 }
 
 fn csv(header: &[String], rows: &[Vec<String>]) -> String {
@@ -293,11 +297,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         })
         .collect();
     page.push_str("<p>The library at the end of each run, per scheme.</p>\n");
-    html_table(&mut page, &header, &rows);
-    tables.push(Table {
-        name: "final_by_scheme".into(),
-        csv: csv(&header, &rows),
-    });
+    add_table(&mut page, &mut tables, "final_by_scheme", &header, &rows);
     let header: Vec<String> = [
         "schemes",
         "measure",
@@ -328,11 +328,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     if rows.is_empty() {
         page.push_str("<p>Only one scheme: nothing to compare.</p>\n");
     }
-    html_table(&mut page, &header, &rows);
-    tables.push(Table {
-        name: "mann_whitney".into(),
-        csv: csv(&header, &rows),
-    });
+    add_table(&mut page, &mut tables, "mann_whitney", &header, &rows);
 
     // 3 and 4. One run's library.
     let hi = runs
@@ -396,11 +392,13 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         })
         .collect();
     page.push_str("<p>Mean feature values of the top 10 % of designs of each scheme, pooled over repeats (the paper's Table 5).</p>\n");
-    html_table(&mut page, &header, &rows);
-    tables.push(Table {
-        name: "top_designs_features".into(),
-        csv: csv(&header, &rows),
-    });
+    add_table(
+        &mut page,
+        &mut tables,
+        "top_designs_features",
+        &header,
+        &rows,
+    );
     let mut header = vec!["scheme".to_string()];
     header.extend(CONTROLLER_PARAMS.iter().map(|p| p.name.to_string()));
     let rows: Vec<Vec<String>> = summary
@@ -413,11 +411,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         })
         .collect();
     page.push_str("<p>Mean controller of the best design of each repeat, per scheme.</p>\n");
-    html_table(&mut page, &header, &rows);
-    tables.push(Table {
-        name: "best_controllers".into(),
-        csv: csv(&header, &rows),
-    });
+    add_table(&mut page, &mut tables, "best_controllers", &header, &rows);
 
     // 6. Rules.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[5]);
@@ -444,11 +438,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     if rows.is_empty() {
         page.push_str("<p>Too few designs to mine rules.</p>\n");
     }
-    html_table(&mut page, &header, &rows);
-    tables.push(Table {
-        name: "design_rules".into(),
-        csv: csv(&header, &rows),
-    });
+    add_table(&mut page, &mut tables, "design_rules", &header, &rows);
 
     // 7. Drawings.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);

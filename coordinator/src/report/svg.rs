@@ -2,14 +2,7 @@
 //! tick positions. Everything is plain strings, to scale in user units (px).
 
 use std::fmt::Write;
-
-/// Escapes text for SVG and HTML.
-pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+pub use strider_common::xml::{escape, svg_document as document};
 
 /// `<text>` at (x, y) with an anchor (`start`, `middle`, `end`).
 pub fn text(out: &mut String, x: f64, y: f64, size: f64, anchor: &str, s: &str) {
@@ -27,13 +20,6 @@ pub fn vertical_text(out: &mut String, x: f64, y: f64, size: f64, s: &str) {
         r#"<text x="{x:.1}" y="{y:.1}" font-family="sans-serif" font-size="{size}" text-anchor="middle" transform="rotate(-90 {x:.1} {y:.1})">{}</text>"#,
         escape(s)
     );
-}
-
-/// An SVG document of `width` x `height` with a white background around `body`.
-pub fn document(width: f64, height: f64, body: &str) -> String {
-    format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width:.0}\" height=\"{height:.0}\" viewBox=\"0 0 {width:.0} {height:.0}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n{body}</svg>\n"
-    )
 }
 
 /// Colour of empty cells: light grey, unlike any colour of the fitness scale.
