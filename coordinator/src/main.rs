@@ -191,8 +191,18 @@ fn closed_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
+/// One thread for `run` and the offline commands: there the async work is moving a few
+/// messages per trial between threads that simulate on every core, and each extra thread
+/// woken per message preempts a simulation (BENCHMARKS.md, `run` against the evaluator).
+fn local_runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")
+}
+
+/// `serve`: the service's own cores, up to four (SQLite's writer has its own thread).
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    // Simulations run on the blocking pool; these threads only move messages.
     let threads = default_threads().get().clamp(1, 4);
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(threads)
@@ -245,7 +255,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         } => {
             init_logs();
             let every = seconds("progress-every", progress_every)?;
-            runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers, every))
+            local_runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers, every))
         }
         Command::Serve {
             db,

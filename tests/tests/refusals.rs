@@ -106,20 +106,23 @@ fn real_outcome(a: &v1::Assignment) -> v1::Outcome {
 /// Results the database holds from workers (sqlite3, the tool a user would open it with):
 /// stored in the current step or applied (candidates settled without a trial have no
 /// statistics), and counted per worker.
+/// One number the query returns, read with the sqlite3 shell.
+fn sqlite_count(db: &Path, sql: &str) -> i64 {
+    let out = Command::new("sqlite3")
+        .arg(db)
+        .arg(sql)
+        .output()
+        .expect("sqlite3 is installed (.ci/run installs it)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).trim().parse().unwrap()
+}
+
 fn results_in(db: &Path) -> (i64, i64) {
-    let count = |sql: &str| -> i64 {
-        let out = Command::new("sqlite3")
-            .arg(db)
-            .arg(sql)
-            .output()
-            .expect("sqlite3 is installed (.ci/run installs it)");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).trim().parse().unwrap()
-    };
+    let count = |sql: &str| sqlite_count(db, sql);
     (
         count("SELECT COUNT(*) FROM pending WHERE status = 'done' AND worker IS NOT NULL")
             + count("SELECT COUNT(*) FROM candidates WHERE kind != 'rejected' OR outcome NOT LIKE '%\"stats\":null%'"),
@@ -290,6 +293,19 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
         drop(st);
+        // Every session, refused or not, ends by recording what its worker sent.
+        while sqlite_count(
+            &db,
+            "SELECT COUNT(*) FROM workers WHERE disconnected_at IS NULL",
+        ) > 0
+        {
+            assert!(
+                Instant::now() < deadline,
+                "a worker session never ended; coordinator log:\n{}",
+                coordinator.log()
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
     });
     // Exactly the one good result; none of the refused ones.
     let (stored, _) = results_in(&db);

@@ -4,15 +4,16 @@
 //! heartbeats, and on shutdown give back what has not started and finish (or give back)
 //! the rest within a bound.
 
-use crate::evaluate::{evaluate, EvalContext};
+use crate::evaluate::EvalContext;
+use crate::pool::{Answer, SimPool, Trial};
 use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use strider_common::rng::CandidateSeed;
-use strider_common::{Experiment, Genome, Outcome, Scheme};
+use strider_common::{Experiment, Genome, Scheme};
 use strider_proto::convert::scheme_from_wire;
 use strider_proto::v1::{
     self, coordinator_message, worker_message, worker_service_client::WorkerServiceClient,
@@ -20,7 +21,6 @@ use strider_proto::v1::{
 };
 use strider_proto::PROTOCOL_VERSION;
 use tokio::sync::{mpsc, watch, Semaphore};
-use tokio::task::JoinSet;
 use tonic::metadata::MetadataValue;
 use tonic::transport::Endpoint;
 use tonic::{Code, Request, Status};
@@ -159,6 +159,8 @@ pub async fn work(
         .transpose()?;
     // Shared across sessions, so trials of a lost session still running keep their cores.
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
+    let pool = SimPool::new(opts.threads)
+        .map_err(|e| WorkerError::Refused(format!("starting simulation threads: {e}")))?;
     let first_backoff = Duration::from_millis(100);
     let mut backoff = first_backoff;
     loop {
@@ -173,7 +175,7 @@ pub async fn work(
                         &url,
                         &endpoint,
                         authorization.clone(),
-                        &cores,
+                        (&cores, &pool),
                         &mut shutdown,
                     )
                     .await?
@@ -242,14 +244,14 @@ fn msg(kind: worker_message::Kind) -> WorkerMessage {
     WorkerMessage { kind: Some(kind) }
 }
 
-type Done = (v1::CandidateId, Outcome, f64);
+type Done = Answer<v1::CandidateId>;
 
 async fn session(
     opts: &ConnectOptions,
     url: &str,
     endpoint: &Endpoint,
     authorization: Option<MetadataValue<tonic::metadata::Ascii>>,
-    cores: &Arc<Semaphore>,
+    (cores, pool): (&Arc<Semaphore>, &SimPool<v1::CandidateId>),
     shutdown: &mut watch::Receiver<bool>,
 ) -> Result<End, WorkerError> {
     let channel = match endpoint.connect().await {
@@ -317,7 +319,8 @@ async fn session(
     ));
     let mut queue: VecDeque<Job> = VecDeque::new();
     let mut running: BTreeSet<(u32, u32, u64)> = BTreeSet::new();
-    let mut trials: JoinSet<Done> = JoinSet::new();
+    // Answers of this session's trials (a later session never sees them).
+    let (answer, mut answers) = flume::unbounded::<Done>();
     let evaluator = opts.evaluator;
     let lost = |why: String| Ok(End::Lost(why, true));
     loop {
@@ -352,15 +355,17 @@ async fn session(
                 let permit = permit.expect("the semaphore is never closed");
                 let j = queue.pop_front().expect("checked non-empty");
                 running.insert((j.id.run, j.id.generation, j.id.number));
-                trials.spawn_blocking(move || {
-                    let _core = permit;
-                    let start = Instant::now();
-                    let outcome = evaluate(&ctx, &j.genome, j.scheme, j.seed);
-                    (j.id, outcome, start.elapsed().as_secs_f64())
+                pool.run(Trial {
+                    key: j.id,
+                    ctx,
+                    genome: j.genome,
+                    scheme: j.scheme,
+                    seed: j.seed,
+                    core: permit,
+                    answer: answer.clone(),
                 });
             },
-            Some(done) = trials.join_next() => {
-                let (id, outcome, seconds) = done.expect("trials do not panic");
+            Ok((id, outcome, seconds)) = answers.recv_async() => {
                 running.remove(&(id.run, id.generation, id.number));
                 let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
                 if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
@@ -380,7 +385,8 @@ async fn session(
                 }
             },
             _ = shutdown.changed() => {
-                drain(opts.drain, &out, queue, running, &mut trials).await;
+                drop(answer);
+                drain(opts.drain, &out, queue, running, &mut answers).await;
                 return Ok(End::ShutDown);
             },
         }
@@ -394,7 +400,7 @@ async fn drain(
     out: &mpsc::Sender<WorkerMessage>,
     queue: VecDeque<Job>,
     mut running: BTreeSet<(u32, u32, u64)>,
-    trials: &mut JoinSet<Done>,
+    answers: &mut flume::Receiver<Done>,
 ) {
     let release = |candidates: Vec<v1::CandidateId>| {
         msg(worker_message::Kind::Release(v1::Release { candidates }))
@@ -404,20 +410,19 @@ async fn drain(
         let _ = out.send(release(queued)).await;
     }
     tracing::info!(
-        running = trials.len(),
+        running = running.len(),
         "shutting down: finishing running trials for up to {bound:?}"
     );
     let deadline = tokio::time::Instant::now() + bound;
-    loop {
+    while !running.is_empty() {
         tokio::select! {
-            next = trials.join_next() => match next {
-                Some(Ok((id, outcome, seconds))) => {
+            next = answers.recv_async() => match next {
+                Ok((id, outcome, seconds)) => {
                     running.remove(&(id.run, id.generation, id.number));
                     let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
                     let _ = out.send(msg(worker_message::Kind::Result(r))).await;
                 }
-                Some(Err(_)) => {}
-                None => break,
+                Err(_) => break,
             },
             _ = tokio::time::sleep_until(deadline) => break,
         }
@@ -434,7 +439,6 @@ async fn drain(
         let _ = out.send(release(left)).await;
     }
     // Threads still simulating finish in the background; the process does not wait.
-    trials.detach_all();
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@ pub mod batch;
 pub mod client;
 pub mod es;
 pub mod evaluate;
+pub mod pool;
 pub mod replay;
 pub mod sim;
 pub mod survey;

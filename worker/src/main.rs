@@ -211,8 +211,8 @@ fn connect(args: ConnectArgs, coordinator: CoordinatorAddress) -> anyhow::Result
             args.max_backoff_seconds.clamp(0.05, 600.0),
         ),
     };
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+    // One async thread moves the messages; trials run on the simulation threads.
+    let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .context("starting the async runtime")?;

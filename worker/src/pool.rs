@@ -1,0 +1,121 @@
+//! The worker process's simulation threads: exactly `threads` long-lived OS threads that
+//! take one trial at a time, like the batch evaluator's scoped threads.
+//!
+//! Why not tokio's blocking pool: it starts a new thread whenever no idle one is there at
+//! the instant of the call, and a trial's thread frees its core (the semaphore permit)
+//! just before going idle, so trials rotated over 5 or 6 threads on 2 cores: more
+//! migrations, colder caches and malloc arenas, and about 15 % more CPU per trial than the
+//! batch evaluator (BENCHMARKS.md, "`run` against the batch evaluator alone").
+
+use crate::evaluate::{evaluate, EvalContext};
+use std::num::NonZeroUsize;
+use std::time::Instant;
+use strider_common::rng::CandidateSeed;
+use strider_common::{Genome, Outcome, Scheme};
+use tokio::sync::OwnedSemaphorePermit;
+
+/// One trial to run, and where its answer goes.
+pub struct Trial<K> {
+    /// Whatever the caller needs to recognise the answer (a candidate id).
+    pub key: K,
+    /// What the run fixes.
+    pub ctx: EvalContext,
+    /// The candidate.
+    pub genome: Genome,
+    /// Its run's scheme.
+    pub scheme: Scheme,
+    /// Its seed.
+    pub seed: CandidateSeed,
+    /// The core it holds: released when the trial ends, before its answer is sent.
+    pub core: OwnedSemaphorePermit,
+    /// Where the answer goes; a closed receiver (a session that ended) drops it.
+    pub answer: flume::Sender<Answer<K>>,
+}
+
+/// A finished trial: its key, outcome and wall time in seconds.
+pub type Answer<K> = (K, Outcome, f64);
+
+/// The simulation threads. Dropping the pool lets them finish the trial in hand and end.
+pub struct SimPool<K> {
+    trials: flume::Sender<Trial<K>>,
+}
+
+impl<K: Send + 'static> SimPool<K> {
+    /// Starts `threads` threads named `strider-sim-N`.
+    pub fn new(threads: NonZeroUsize) -> std::io::Result<Self> {
+        let (trials, queue) = flume::unbounded::<Trial<K>>();
+        for i in 0..threads.get() {
+            let queue = queue.clone();
+            std::thread::Builder::new()
+                .name(format!("strider-sim-{i}"))
+                .spawn(move || {
+                    for t in queue.iter() {
+                        let start = Instant::now();
+                        let outcome = evaluate(&t.ctx, &t.genome, t.scheme, t.seed);
+                        let seconds = start.elapsed().as_secs_f64();
+                        drop(t.core);
+                        let _ = t.answer.send((t.key, outcome, seconds));
+                    }
+                })?;
+        }
+        Ok(Self { trials })
+    }
+
+    /// Hands a trial to the next free thread (callers hold a core permit, so one is free
+    /// or about to be).
+    pub fn run(&self, trial: Trial<K>) {
+        self.trials
+            .send(trial)
+            .expect("simulation threads live as long as the pool");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+    use strider_common::rng::CandidateSeed;
+    use tokio::sync::Semaphore;
+
+    #[tokio::test]
+    async fn answers_every_trial_with_the_batch_outcome_and_frees_its_cores() {
+        let ctx = EvalContext::paper();
+        let pool = SimPool::new(NonZeroUsize::new(2).unwrap()).unwrap();
+        let cores = Arc::new(Semaphore::new(2));
+        let (answer, answers) = flume::unbounded();
+        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+        let genomes: Vec<Genome> = (0..6)
+            .map(|_| Genome::random(Scheme::Static, &mut rng))
+            .collect();
+        for (i, g) in genomes.iter().enumerate() {
+            let core = cores.clone().acquire_owned().await.unwrap();
+            pool.run(Trial {
+                key: i,
+                ctx,
+                genome: *g,
+                scheme: Scheme::Static,
+                seed: CandidateSeed::new(1, i as u64),
+                core,
+                answer: answer.clone(),
+            });
+        }
+        let mut got = Vec::new();
+        for _ in 0..genomes.len() {
+            got.push(answers.recv_async().await.unwrap());
+        }
+        got.sort_by_key(|a| a.0);
+        for (i, (key, outcome, seconds)) in got.into_iter().enumerate() {
+            assert_eq!(key, i);
+            assert!(seconds >= 0.0);
+            let expected = evaluate(
+                &ctx,
+                &genomes[i],
+                Scheme::Static,
+                CandidateSeed::new(1, i as u64),
+            );
+            assert_eq!(outcome, expected);
+        }
+        // Every core was given back.
+        assert_eq!(cores.available_permits(), 2);
+    }
+}
