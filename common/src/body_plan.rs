@@ -253,7 +253,9 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
     let strength_scale = 1.0 + 0.1 * m.get(M::StrengthMult) * u2;
     let wall = m.get(M::WallThickness);
 
-    let links = std::array::from_fn(|k| {
+    // A closure called three times rather than `array::from_fn`, which moved each
+    // 240-byte link through four temporaries (a fifth of the coordinator's precheck).
+    let link = |k: usize| {
         let length = m.get(LINK_LENGTH[k]) * length_scale;
         let width = m.get(LINK_WIDTH[k]) * width_scale;
         let drive = JointDrive {
@@ -297,7 +299,8 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
             drive,
             mass: mass::link(length, width, wall, drive.max_torque, drive.max_speed),
         }
-    });
+    };
+    let links = [link(0), link(1), link(2)];
     LegPlan {
         side: Side::Right,
         index: i,

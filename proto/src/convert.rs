@@ -18,14 +18,16 @@ pub struct WireError {
     pub problem: String,
 }
 
-fn wire_err(field: &str, problem: impl ToString) -> WireError {
+fn wire_err(field: impl std::fmt::Display, problem: impl ToString) -> WireError {
     WireError {
-        field: field.into(),
+        field: field.to_string(),
         problem: problem.to_string(),
     }
 }
 
-fn finite(field: &str, v: f64) -> Result<f64, WireError> {
+/// `v` if finite. The field's name is only formatted when it is not (every result passes
+/// through here: names built eagerly cost more than the rest of the decoding).
+fn finite(field: impl std::fmt::Display, v: f64) -> Result<f64, WireError> {
     if v.is_finite() {
         Ok(v)
     } else {
@@ -92,7 +94,7 @@ fn stats_to_wire(s: &TrialStats) -> v1::TrialStats {
 }
 
 fn stats_from_wire(field: &str, s: &v1::TrialStats) -> Result<TrialStats, WireError> {
-    let f = |name: &str, v: f64| finite(&format!("{field}.{name}"), v);
+    let f = |name: &str, v: f64| finite(format_args!("{field}.{name}"), v);
     Ok(TrialStats {
         distance: f("distance", s.distance)?,
         energy: f("energy", s.energy)?,
@@ -214,7 +216,7 @@ impl TryFrom<&v1::Outcome> for Outcome {
                 }
                 let mut features = [0.0; FEATURE_COUNT];
                 for (i, (slot, &x)) in features.iter_mut().zip(&v.features).enumerate() {
-                    *slot = finite(&format!("outcome.valid.features[{i}]"), x)?;
+                    *slot = finite(format_args!("outcome.valid.features[{i}]"), x)?;
                 }
                 Ok(Outcome::Valid {
                     fitness,
@@ -227,22 +229,22 @@ impl TryFrom<&v1::Outcome> for Outcome {
             v1::outcome::Kind::Rejected(r) => {
                 let mut violations = Vec::with_capacity(r.violations.len());
                 for (i, v) in r.violations.iter().enumerate() {
-                    let field = format!("outcome.rejected.violations[{i}]");
+                    let field = format_args!("outcome.rejected.violations[{i}]");
                     let constraint = match v1::violation::Constraint::try_from(v.constraint) {
                         Ok(v1::violation::Constraint::Mass) => Constraint::Mass,
                         Ok(v1::violation::Constraint::Height) => Constraint::Height,
                         Ok(v1::violation::Constraint::Speed) => Constraint::Speed,
                         _ => {
                             return Err(wire_err(
-                                &format!("{field}.constraint"),
+                                format_args!("{field}.constraint"),
                                 format!("{} is not a constraint", v.constraint),
                             ))
                         }
                     };
                     violations.push(Violation {
                         constraint,
-                        value: finite(&format!("{field}.value"), v.value)?,
-                        limit: finite(&format!("{field}.limit"), v.limit)?,
+                        value: finite(format_args!("{field}.value"), v.value)?,
+                        limit: finite(format_args!("{field}.limit"), v.limit)?,
                     });
                 }
                 if violations.is_empty() {

@@ -63,6 +63,16 @@ pub fn evaluate(
 /// The coordinator settles such candidates itself instead of sending them to a worker.
 pub fn precheck(ctx: &EvalContext, genome: &Genome, scheme: Scheme) -> Option<Outcome> {
     let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    precheck_plan(ctx, genome, &plan, scheme)
+}
+
+/// [`precheck`] for a genome whose body plan is already built.
+pub fn precheck_plan(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    scheme: Scheme,
+) -> Option<Outcome> {
     let controller = match scheme {
         Scheme::Static | Scheme::Es => Controller::static_default(),
         Scheme::Genome => genome.controller,
@@ -71,8 +81,8 @@ pub fn precheck(ctx: &EvalContext, genome: &Genome, scheme: Scheme) -> Option<Ou
     if scheme == Scheme::Es && plan.mass_without_payload() <= ctx.brief.max_mass {
         return None;
     }
-    let pose = StartPose::new(&plan, &controller);
-    let violations = ctx.brief.check_model(&plan, &pose);
+    let pose = StartPose::new(plan, &controller);
+    let violations = ctx.brief.check_model(plan, &pose);
     (!violations.is_empty()).then_some(Outcome::Rejected {
         violations,
         stats: None,

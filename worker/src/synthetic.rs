@@ -5,7 +5,7 @@
 //! The outcome is a deterministic function of the candidate (its features and cell are the
 //! design's real ones; fitness and statistics are invented), so runs stay reproducible.
 
-use crate::evaluate::{precheck, EvalContext};
+use crate::evaluate::{precheck_plan, EvalContext};
 use strider_common::rng::CandidateSeed;
 use strider_common::{BodyPlan, Features, Genome, Outcome, Scheme, TrialStats};
 
@@ -16,10 +16,10 @@ pub fn instant_outcome(
     scheme: Scheme,
     seed: CandidateSeed,
 ) -> Outcome {
-    if let Some(o) = precheck(ctx, genome, scheme) {
+    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    if let Some(o) = precheck_plan(ctx, genome, &plan, scheme) {
         return o;
     }
-    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
     let features = Features::of(&genome.morphology, &plan);
     let cell = ctx
         .grid

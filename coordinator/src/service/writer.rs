@@ -8,7 +8,7 @@
 //! window a slow stream of results paid one fsync each (about 150 commits/s in a local
 //! run, each waking the writer, SQLite's thread and the kernel beside the simulations).
 
-use crate::db::{Db, DbError, Write};
+use crate::db::{Db, DbError, PreparedGroup, Write};
 use tokio::sync::{mpsc, oneshot};
 
 /// Most writes in one transaction (bounds a group's latency).
@@ -54,46 +54,91 @@ async fn checkpoint_continually(db: Db) {
     }
 }
 
+/// A prepared group on its way to the committer, with the flushes waiting for it.
+struct Ready {
+    group: Option<PreparedGroup>,
+    flushes: Vec<oneshot::Sender<()>>,
+}
+
+/// Groups smaller than this are prepared on the writer task itself (a thread hand-off
+/// costs more than preparing a few rows).
+const PREPARE_INLINE: usize = 64;
+
+/// Two stages: one collects and prepares groups (JSON and all, on a blocking thread), the
+/// other commits them (on SQLite's thread), so group n + 1 is prepared while n commits.
 async fn write_groups(
     db: &Db,
     rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
 ) -> Result<(), DbError> {
-    let mut group: Vec<Write> = Vec::new();
-    let mut flushes = Vec::new();
-    while let Some(first) = rx.recv().await {
-        let close_at = tokio::time::Instant::now() + GROUP_WINDOW;
-        let mut next = Some(first);
-        while let Some(m) = next {
-            match m {
-                WriterMessage::Writes(w) => group.extend(w),
-                WriterMessage::Flush(done) => flushes.push(done),
+    let (ready_tx, mut ready_rx) = mpsc::channel::<Ready>(1);
+    let commit = async {
+        while let Some(Ready { group, flushes }) = ready_rx.recv().await {
+            if let Some(group) = group {
+                let started = std::time::Instant::now();
+                let writes = group.writes();
+                db.commit(group).await?;
+                tracing::debug!(
+                    writes,
+                    ms = started.elapsed().as_secs_f64() * 1e3,
+                    "group committed"
+                );
             }
-            next = if group.len() >= MAX_GROUP || !flushes.is_empty() {
-                None
-            } else if let Ok(m) = rx.try_recv() {
-                Some(m)
-            } else {
-                // Nothing queued: wait for more until the window closes (or every
-                // sender is gone, when the group is committed at once).
-                tokio::time::timeout_at(close_at, rx.recv())
-                    .await
-                    .ok()
-                    .flatten()
+            for done in flushes {
+                let _ = done.send(());
+            }
+        }
+        Ok::<(), DbError>(())
+    };
+    let prepare = async move {
+        while let Some((writes, flushes)) = collect_group(rx).await {
+            let group = match writes.len() {
+                0 => None,
+                n if n < PREPARE_INLINE => Some(PreparedGroup::new(&writes)),
+                _ => Some(
+                    tokio::task::spawn_blocking(move || PreparedGroup::new(&writes))
+                        .await
+                        .expect("preparing a group does not panic"),
+                ),
             };
+            if ready_tx.send(Ready { group, flushes }).await.is_err() {
+                // The committer failed; its error is the one reported.
+                break;
+            }
         }
-        if !group.is_empty() {
-            let started = std::time::Instant::now();
-            db.write(&group).await?;
-            tracing::debug!(
-                writes = group.len(),
-                ms = started.elapsed().as_secs_f64() * 1e3,
-                "group committed"
-            );
-            group.clear();
+        // Dropping `ready_tx` lets the committer finish what it has and end.
+        Ok(())
+    };
+    // A commit error ends both at once (the collector may be waiting for writes).
+    tokio::try_join!(commit, prepare).map(|_| ())
+}
+
+/// The next group: everything queued, then whatever comes within [`GROUP_WINDOW`] of its
+/// first change, up to [`MAX_GROUP`] writes or the first flush. `None` once every sender
+/// is gone and nothing is left.
+async fn collect_group(
+    rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
+) -> Option<(Vec<Write>, Vec<oneshot::Sender<()>>)> {
+    let first = rx.recv().await?;
+    let close_at = tokio::time::Instant::now() + GROUP_WINDOW;
+    let (mut group, mut flushes) = (Vec::new(), Vec::new());
+    let mut next = Some(first);
+    while let Some(m) = next {
+        match m {
+            WriterMessage::Writes(w) => group.extend(w),
+            WriterMessage::Flush(done) => flushes.push(done),
         }
-        for done in flushes.drain(..) {
-            let _ = done.send(());
-        }
+        next = if group.len() >= MAX_GROUP || !flushes.is_empty() {
+            None
+        } else if let Ok(m) = rx.try_recv() {
+            Some(m)
+        } else {
+            // Nothing queued: wait for more until the window closes (or every sender is
+            // gone, when the group is committed at once).
+            tokio::time::timeout_at(close_at, rx.recv())
+                .await
+                .ok()
+                .flatten()
+        };
     }
-    Ok(())
+    Some((group, flushes))
 }

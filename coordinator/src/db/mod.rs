@@ -3,17 +3,20 @@
 //! population, or a whole generation with its statistics) is one transaction, so a
 //! coordinator killed at any instant loses at most the work in flight.
 
+mod group;
+
+pub use group::{rows_outliving_the_group, PreparedGroup};
+
 use crate::library::{Elite, GenerationStats, Library, Placement};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
 use sqlx::Row;
-use std::collections::HashMap;
 use std::path::Path;
 use std::str::FromStr;
 use strider_common::experiment::RunSpec;
 use strider_common::rng::{CandidateNumber, RunSeed};
-use strider_common::{CellIndex, Experiment, Genome, InvalidReason, Outcome, Scheme};
+use strider_common::{CellIndex, Experiment, Genome, Outcome, Scheme};
 
 /// A database problem, with what was being done.
 #[derive(Debug, thiserror::Error)]
@@ -360,39 +363,6 @@ impl Db {
         Ok(out)
     }
 
-    /// Applies a group of writes in one transaction (the writer task's group commit).
-    pub async fn write(&self, writes: &[Write]) -> Result<(), DbError> {
-        let mut tx = self.pool.begin().await?;
-        // A pending row that a later step of the same group deletes again need not be
-        // written: the transaction ends the same. When the writer is behind, most are.
-        let needed = rows_outliving_the_group(writes);
-        let mut rows: Vec<&Write> = Vec::new();
-        // In order; consecutive writes to the pending table go in one statement (a
-        // statement costs far more than a row).
-        for (w, needed) in writes.iter().zip(needed) {
-            if is_pending_row(w) {
-                if needed {
-                    rows.push(w);
-                }
-                if rows.len() == PENDING_ROWS_PER_STATEMENT {
-                    write_pending_rows(&mut tx, &rows).await?;
-                    rows.clear();
-                }
-            } else {
-                if !rows.is_empty() {
-                    write_pending_rows(&mut tx, &rows).await?;
-                    rows.clear();
-                }
-                write_one(&mut tx, w).await?;
-            }
-        }
-        if !rows.is_empty() {
-            write_pending_rows(&mut tx, &rows).await?;
-        }
-        tx.commit().await?;
-        Ok(())
-    }
-
     /// Every stored candidate of the runs' current steps.
     pub async fn pending(&self) -> Result<Vec<StoredPending>, DbError> {
         let rows = sqlx::query(
@@ -565,236 +535,6 @@ impl Db {
     }
 }
 
-/// Rows per multi-row statement (8 parameters each; SQLite allows 32,766).
-const PENDING_ROWS_PER_STATEMENT: usize = 1000;
-
-fn is_pending_row(w: &Write) -> bool {
-    matches!(w, Write::Resolved { .. } | Write::LeaseLost { .. })
-}
-
-/// For each write, whether it must be written: false for a pending row that a later step
-/// of its run in the same group removes from `pending` again.
-pub fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
-    // A run's steps only ever widen what they clear, so its last step in the group
-    // decides for every row before it.
-    let mut last_step: HashMap<i64, &StepCommit> = HashMap::new();
-    let mut needed = vec![true; writes.len()];
-    for (i, w) in writes.iter().enumerate().rev() {
-        match w {
-            Write::Step(step) => {
-                last_step.entry(step.run).or_insert(step);
-            }
-            Write::Resolved {
-                run,
-                number,
-                generation,
-                ..
-            }
-            | Write::LeaseLost {
-                run,
-                number,
-                generation,
-                ..
-            } => {
-                if let Some(step) = last_step.get(run) {
-                    needed[i] = !step.clears(*number, *generation);
-                }
-            }
-            _ => {}
-        }
-    }
-    needed
-}
-
-/// Upserts pending rows (results and lost leases) in one statement.
-async fn write_pending_rows(
-    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
-    writes: &[&Write],
-) -> Result<(), DbError> {
-    let mut q = sqlx::QueryBuilder::new(
-        "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds) ",
-    );
-    q.push_values(writes, |mut b, w| match *w {
-        Write::Resolved {
-            run,
-            number,
-            generation,
-            attempts,
-            outcome,
-            worker,
-            seconds,
-        } => {
-            let failed = matches!(
-                outcome,
-                Outcome::Invalid {
-                    reason: InvalidReason::EvaluationFailed { .. },
-                    ..
-                }
-            );
-            b.push_bind(*run)
-                .push_bind(number.0 as i64)
-                .push_bind(i64::from(*generation))
-                .push_bind(if failed { "failed" } else { "done" })
-                .push_bind(i64::from(*attempts))
-                .push_bind(worker.map(|w| w as i64))
-                .push_bind(serde_json::to_string(outcome).expect("outcomes serialise"))
-                .push_bind(*seconds);
-        }
-        Write::LeaseLost {
-            run,
-            number,
-            generation,
-            attempts,
-            worker,
-        } => {
-            b.push_bind(*run)
-                .push_bind(number.0 as i64)
-                .push_bind(i64::from(*generation))
-                .push_bind("waiting")
-                .push_bind(i64::from(*attempts))
-                .push_bind(Some(*worker as i64))
-                .push_bind(None::<String>)
-                .push_bind(None::<f64>);
-        }
-        _ => unreachable!("only pending rows are batched"),
-    });
-    q.push(
-        " ON CONFLICT (run_id, number) DO UPDATE SET generation = excluded.generation, \
-         status = excluded.status, attempts = excluded.attempts, worker = excluded.worker, \
-         outcome = excluded.outcome, seconds = excluded.seconds",
-    );
-    q.build().execute(&mut **tx).await?;
-    Ok(())
-}
-
-async fn write_one(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>, w: &Write) -> Result<(), DbError> {
-    match w {
-        Write::Resolved { .. } | Write::LeaseLost { .. } => write_pending_rows(tx, &[w]).await?,
-        Write::Step(step) => write_step(tx, step).await?,
-        Write::WorkerJoined {
-            id,
-            name,
-            build,
-            slots,
-        } => {
-            sqlx::query("INSERT INTO workers (id, name, build, slots, connected_at) VALUES (?, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))")
-                .bind(*id as i64)
-                .bind(name)
-                .bind(build)
-                .bind(i64::from(*slots))
-                .execute(&mut **tx)
-                .await?;
-        }
-        Write::WorkerLeft {
-            id,
-            results,
-            reason,
-        } => {
-            sqlx::query("UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), results = ?, left_because = ? WHERE id = ?")
-                .bind(*results as i64)
-                .bind(reason)
-                .bind(*id as i64)
-                .execute(&mut **tx)
-                .await?;
-        }
-    }
-    Ok(())
-}
-
-async fn write_step(
-    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
-    step: &StepCommit,
-) -> Result<(), DbError> {
-    let run = step.run;
-    for chunk in step.candidates.chunks(1000) {
-        let mut q = sqlx::QueryBuilder::new(
-            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) ",
-        );
-        q.push_values(chunk, |mut b, c| {
-            let (fitness, cell) = match &c.outcome {
-                Outcome::Valid { fitness, cell, .. } => (Some(*fitness), Some(i64::from(cell.0))),
-                _ => (None, None),
-            };
-            b.push_bind(run)
-                .push_bind(c.number.0 as i64)
-                .push_bind(i64::from(c.generation))
-                .push_bind(serde_json::to_string(&c.genome).expect("genomes serialise"))
-                .push_bind(serde_json::to_string(&c.outcome).expect("outcomes serialise"))
-                .push_bind(c.outcome.kind())
-                .push_bind(fitness)
-                .push_bind(cell)
-                .push_bind(placement_name(c.placement));
-        });
-        q.build().execute(&mut **tx).await?;
-    }
-    for chunk in step.elites.chunks(1000) {
-        let mut q =
-            sqlx::QueryBuilder::new("INSERT INTO cells (run_id, cell, candidate, fitness) ");
-        q.push_values(chunk, |mut b, (cell, elite)| {
-            b.push_bind(run)
-                .push_bind(i64::from(cell.0))
-                .push_bind(elite.candidate.0 as i64)
-                .push_bind(elite.fitness);
-        });
-        q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness");
-        q.build().execute(&mut **tx).await?;
-    }
-    if let Some((generation, mut stats)) = step.completed {
-        if generation == 0 {
-            for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
-                .bind(run)
-                .fetch_all(&mut **tx)
-                .await?
-            {
-                let n = r.get::<i64, _>(1) as usize;
-                match r.get::<String, _>(0).as_str() {
-                    "new" => stats.new = n,
-                    "improved" => stats.improved = n,
-                    "discarded" => stats.discarded = n,
-                    "rejected" => stats.rejected = n,
-                    _ => stats.invalid = n,
-                }
-            }
-        }
-        let evaluations =
-            stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
-        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
-            .bind(run)
-            .bind(i64::from(generation))
-            .bind(evaluations as i64)
-            .bind(stats.coverage)
-            .bind(stats.elites as i64)
-            .bind(stats.max_fitness)
-            .bind(stats.mean_fitness)
-            .bind(stats.min_fitness)
-            .bind(stats.qd_score)
-            .bind(stats.new as i64)
-            .bind(stats.improved as i64)
-            .bind(stats.discarded as i64)
-            .bind(stats.rejected as i64)
-            .bind(stats.invalid as i64)
-            .execute(&mut **tx)
-            .await?;
-    }
-    let p = step.position;
-    // What `StepCommit::clears` says.
-    sqlx::query("DELETE FROM pending WHERE run_id = ? AND (number < ? OR (generation = 0 AND ?))")
-        .bind(run)
-        .bind(p.next_candidate as i64)
-        .bind(step.initial_population_done())
-        .execute(&mut **tx)
-        .await?;
-    sqlx::query("UPDATE runs SET generation = ?, initial_passed = ?, next_candidate = ?, finished = ? WHERE id = ?")
-        .bind(i64::from(p.generation))
-        .bind(i64::from(p.initial_passed))
-        .bind(p.next_candidate as i64)
-        .bind(i64::from(p.finished))
-        .bind(run)
-        .execute(&mut **tx)
-        .await?;
-    Ok(())
-}
-
 /// The experiment as canonical TOML (what the database stores and compares).
 pub fn canonical_toml(e: &Experiment) -> String {
     toml::to_string(e).expect("experiments serialise")
@@ -836,62 +576,4 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
 
 fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".into(), |v| v.to_string())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn lost(run: i64, number: u64, generation: u32) -> Write {
-        Write::LeaseLost {
-            run,
-            number: CandidateNumber(number),
-            generation,
-            attempts: 1,
-            worker: 7,
-        }
-    }
-
-    fn step(run: i64, generation: u32, next_candidate: u64) -> Write {
-        Write::Step(Box::new(StepCommit {
-            run,
-            position: RunPosition {
-                generation,
-                initial_passed: 400,
-                next_candidate,
-                finished: false,
-            },
-            candidates: Vec::new(),
-            elites: Vec::new(),
-            completed: None,
-        }))
-    }
-
-    #[test]
-    fn only_rows_a_later_step_of_their_run_clears_are_skipped() {
-        let writes = [
-            lost(0, 10, 3), // cleared by run 0's later step (next 20)
-            lost(1, 10, 3), // run 1 has no step in the group
-            lost(0, 25, 3), // beyond the step's next candidate
-            lost(0, 2, 0),  // a spare initial draw: the initial population is done
-            step(0, 3, 20),
-            lost(0, 12, 3), // after the step: written (cannot happen, but must be kept)
-            Write::WorkerLeft {
-                id: 7,
-                results: 0,
-                reason: String::new(),
-            },
-        ];
-        assert_eq!(
-            rows_outliving_the_group(&writes),
-            [false, true, true, false, true, true, true]
-        );
-    }
-
-    #[test]
-    fn spare_initial_draws_stay_while_the_initial_population_is_open() {
-        // Generation 0, not completed: a step clears only applied numbers.
-        let writes = [lost(0, 30, 0), lost(0, 5, 0), step(0, 0, 10)];
-        assert_eq!(rows_outliving_the_group(&writes), [true, false, true]);
-    }
 }

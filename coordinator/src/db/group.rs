@@ -1,0 +1,451 @@
+//! A group of writes made ready to commit, and committing it. Preparing decides which
+//! rows outlive the group and turns every genome and outcome into JSON: plain CPU work,
+//! done before the transaction so that the writer task can prepare the next group while
+//! SQLite commits this one (the two used to run one after the other, and the writer was
+//! the service's bottleneck).
+
+use super::{placement_name, Db, DbError, RunPosition, StepCommit, Write};
+use crate::library::{Elite, GenerationStats};
+use sqlx::Row;
+use std::collections::HashMap;
+use strider_common::{CellIndex, InvalidReason, Outcome};
+
+/// Rows per multi-row statement (9 parameters each; SQLite allows 32,766).
+const ROWS_PER_STATEMENT: usize = 1000;
+
+/// Writes ready to commit in one transaction, in order.
+pub struct PreparedGroup {
+    items: Vec<Item>,
+    writes: usize,
+}
+
+enum Item {
+    /// Consecutive pending rows (results and lost leases), at most a statement's worth.
+    Pending(Vec<PendingRow>),
+    Step(StepRows),
+    Worker(Write),
+}
+
+struct PendingRow {
+    run: i64,
+    number: i64,
+    generation: i64,
+    status: &'static str,
+    attempts: i64,
+    worker: Option<i64>,
+    outcome: Option<String>,
+    seconds: Option<f64>,
+}
+
+struct StepRows {
+    run: i64,
+    candidates: Vec<CandidateRow>,
+    elites: Vec<(CellIndex, Elite)>,
+    completed: Option<(u32, GenerationStats)>,
+    position: RunPosition,
+    initial_population_done: bool,
+}
+
+struct CandidateRow {
+    number: i64,
+    generation: i64,
+    genome: String,
+    outcome: String,
+    kind: &'static str,
+    fitness: Option<f64>,
+    cell: Option<i64>,
+    placement: &'static str,
+}
+
+fn json(o: &impl serde::Serialize) -> String {
+    serde_json::to_string(o).expect("genomes and outcomes serialise")
+}
+
+fn pending_row(w: &Write) -> Option<PendingRow> {
+    match w {
+        Write::Resolved {
+            run,
+            number,
+            generation,
+            attempts,
+            outcome,
+            worker,
+            seconds,
+        } => {
+            let failed = matches!(
+                outcome,
+                Outcome::Invalid {
+                    reason: InvalidReason::EvaluationFailed { .. },
+                    ..
+                }
+            );
+            Some(PendingRow {
+                run: *run,
+                number: number.0 as i64,
+                generation: i64::from(*generation),
+                status: if failed { "failed" } else { "done" },
+                attempts: i64::from(*attempts),
+                worker: worker.map(|w| w as i64),
+                outcome: Some(json(outcome)),
+                seconds: Some(*seconds),
+            })
+        }
+        Write::LeaseLost {
+            run,
+            number,
+            generation,
+            attempts,
+            worker,
+        } => Some(PendingRow {
+            run: *run,
+            number: number.0 as i64,
+            generation: i64::from(*generation),
+            status: "waiting",
+            attempts: i64::from(*attempts),
+            worker: Some(*worker as i64),
+            outcome: None,
+            seconds: None,
+        }),
+        _ => None,
+    }
+}
+
+fn step_rows(step: &StepCommit) -> StepRows {
+    StepRows {
+        run: step.run,
+        candidates: step
+            .candidates
+            .iter()
+            .map(|c| {
+                let (fitness, cell) = match &c.outcome {
+                    Outcome::Valid { fitness, cell, .. } => {
+                        (Some(*fitness), Some(i64::from(cell.0)))
+                    }
+                    _ => (None, None),
+                };
+                CandidateRow {
+                    number: c.number.0 as i64,
+                    generation: i64::from(c.generation),
+                    genome: json(&c.genome),
+                    outcome: json(&c.outcome),
+                    kind: c.outcome.kind(),
+                    fitness,
+                    cell,
+                    placement: placement_name(c.placement),
+                }
+            })
+            .collect(),
+        elites: step.elites.clone(),
+        completed: step.completed,
+        position: step.position,
+        initial_population_done: step.initial_population_done(),
+    }
+}
+
+impl PreparedGroup {
+    /// Prepares `writes` (in order) for one transaction.
+    pub fn new(writes: &[Write]) -> Self {
+        // A pending row that a later step of the same group deletes again need not be
+        // written: the transaction ends the same. When the writer is behind, most are.
+        let needed = rows_outliving_the_group(writes);
+        let mut items = Vec::new();
+        for (w, needed) in writes.iter().zip(needed) {
+            match (w, pending_row(w)) {
+                (_, Some(row)) => {
+                    if !needed {
+                        continue;
+                    }
+                    // Consecutive pending rows go in one statement (a statement costs far
+                    // more than a row).
+                    match items.last_mut() {
+                        Some(Item::Pending(rows)) if rows.len() < ROWS_PER_STATEMENT => {
+                            rows.push(row)
+                        }
+                        _ => items.push(Item::Pending(vec![row])),
+                    }
+                }
+                (Write::Step(step), None) => items.push(Item::Step(step_rows(step))),
+                (other, None) => items.push(Item::Worker(other.clone())),
+            }
+        }
+        Self {
+            items,
+            writes: writes.len(),
+        }
+    }
+
+    /// How many writes it holds.
+    pub fn writes(&self) -> usize {
+        self.writes
+    }
+}
+
+impl Db {
+    /// Applies a group of writes in one transaction.
+    pub async fn write(&self, writes: &[Write]) -> Result<(), DbError> {
+        self.commit(PreparedGroup::new(writes)).await
+    }
+
+    /// Commits a prepared group in one transaction (the writer task's group commit).
+    pub async fn commit(&self, group: PreparedGroup) -> Result<(), DbError> {
+        let mut tx = self.pool.begin().await?;
+        for item in &group.items {
+            match item {
+                Item::Pending(rows) => write_pending_rows(&mut tx, rows).await?,
+                Item::Step(step) => write_step(&mut tx, step).await?,
+                Item::Worker(w) => write_worker(&mut tx, w).await?,
+            }
+        }
+        tx.commit().await?;
+        Ok(())
+    }
+}
+
+/// For each write, whether it must be written: false for a pending row that a later step
+/// of its run in the same group removes from `pending` again.
+pub fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
+    // A run's steps only ever widen what they clear, so its last step in the group
+    // decides for every row before it.
+    let mut last_step: HashMap<i64, &StepCommit> = HashMap::new();
+    let mut needed = vec![true; writes.len()];
+    for (i, w) in writes.iter().enumerate().rev() {
+        match w {
+            Write::Step(step) => {
+                last_step.entry(step.run).or_insert(step);
+            }
+            Write::Resolved {
+                run,
+                number,
+                generation,
+                ..
+            }
+            | Write::LeaseLost {
+                run,
+                number,
+                generation,
+                ..
+            } => {
+                if let Some(step) = last_step.get(run) {
+                    needed[i] = !step.clears(*number, *generation);
+                }
+            }
+            _ => {}
+        }
+    }
+    needed
+}
+
+/// Upserts pending rows (results and lost leases) in one statement.
+async fn write_pending_rows(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    rows: &[PendingRow],
+) -> Result<(), DbError> {
+    let mut q = sqlx::QueryBuilder::new(
+        "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds) ",
+    );
+    q.push_values(rows, |mut b, r| {
+        b.push_bind(r.run)
+            .push_bind(r.number)
+            .push_bind(r.generation)
+            .push_bind(r.status)
+            .push_bind(r.attempts)
+            .push_bind(r.worker)
+            .push_bind(r.outcome.as_deref())
+            .push_bind(r.seconds);
+    });
+    q.push(
+        " ON CONFLICT (run_id, number) DO UPDATE SET generation = excluded.generation, \
+         status = excluded.status, attempts = excluded.attempts, worker = excluded.worker, \
+         outcome = excluded.outcome, seconds = excluded.seconds",
+    );
+    q.build().execute(&mut **tx).await?;
+    Ok(())
+}
+
+/// A worker's arrival or departure.
+async fn write_worker(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    w: &Write,
+) -> Result<(), DbError> {
+    match w {
+        Write::WorkerJoined {
+            id,
+            name,
+            build,
+            slots,
+        } => {
+            sqlx::query("INSERT INTO workers (id, name, build, slots, connected_at) VALUES (?, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))")
+                .bind(*id as i64)
+                .bind(name)
+                .bind(build)
+                .bind(i64::from(*slots))
+                .execute(&mut **tx)
+                .await?;
+        }
+        Write::WorkerLeft {
+            id,
+            results,
+            reason,
+        } => {
+            sqlx::query("UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), results = ?, left_because = ? WHERE id = ?")
+                .bind(*results as i64)
+                .bind(reason)
+                .bind(*id as i64)
+                .execute(&mut **tx)
+                .await?;
+        }
+        _ => unreachable!("only worker writes are written one by one"),
+    }
+    Ok(())
+}
+
+/// A step: its candidates, the cells it changed, its statistics, the run's new position.
+async fn write_step(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    step: &StepRows,
+) -> Result<(), DbError> {
+    let run = step.run;
+    for chunk in step.candidates.chunks(ROWS_PER_STATEMENT) {
+        let mut q = sqlx::QueryBuilder::new(
+            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) ",
+        );
+        q.push_values(chunk, |mut b, c| {
+            b.push_bind(run)
+                .push_bind(c.number)
+                .push_bind(c.generation)
+                .push_bind(c.genome.as_str())
+                .push_bind(c.outcome.as_str())
+                .push_bind(c.kind)
+                .push_bind(c.fitness)
+                .push_bind(c.cell)
+                .push_bind(c.placement);
+        });
+        q.build().execute(&mut **tx).await?;
+    }
+    for chunk in step.elites.chunks(ROWS_PER_STATEMENT) {
+        let mut q =
+            sqlx::QueryBuilder::new("INSERT INTO cells (run_id, cell, candidate, fitness) ");
+        q.push_values(chunk, |mut b, (cell, elite)| {
+            b.push_bind(run)
+                .push_bind(i64::from(cell.0))
+                .push_bind(elite.candidate.0 as i64)
+                .push_bind(elite.fitness);
+        });
+        q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness");
+        q.build().execute(&mut **tx).await?;
+    }
+    if let Some((generation, mut stats)) = step.completed {
+        if generation == 0 {
+            for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
+                .bind(run)
+                .fetch_all(&mut **tx)
+                .await?
+            {
+                let n = r.get::<i64, _>(1) as usize;
+                match r.get::<String, _>(0).as_str() {
+                    "new" => stats.new = n,
+                    "improved" => stats.improved = n,
+                    "discarded" => stats.discarded = n,
+                    "rejected" => stats.rejected = n,
+                    _ => stats.invalid = n,
+                }
+            }
+        }
+        let evaluations =
+            stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
+        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            .bind(run)
+            .bind(i64::from(generation))
+            .bind(evaluations as i64)
+            .bind(stats.coverage)
+            .bind(stats.elites as i64)
+            .bind(stats.max_fitness)
+            .bind(stats.mean_fitness)
+            .bind(stats.min_fitness)
+            .bind(stats.qd_score)
+            .bind(stats.new as i64)
+            .bind(stats.improved as i64)
+            .bind(stats.discarded as i64)
+            .bind(stats.rejected as i64)
+            .bind(stats.invalid as i64)
+            .execute(&mut **tx)
+            .await?;
+    }
+    let p = step.position;
+    // What `StepCommit::clears` says.
+    sqlx::query("DELETE FROM pending WHERE run_id = ? AND (number < ? OR (generation = 0 AND ?))")
+        .bind(run)
+        .bind(p.next_candidate as i64)
+        .bind(step.initial_population_done)
+        .execute(&mut **tx)
+        .await?;
+    sqlx::query("UPDATE runs SET generation = ?, initial_passed = ?, next_candidate = ?, finished = ? WHERE id = ?")
+        .bind(i64::from(p.generation))
+        .bind(i64::from(p.initial_passed))
+        .bind(p.next_candidate as i64)
+        .bind(i64::from(p.finished))
+        .bind(run)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::{RunPosition, StepCommit};
+    use strider_common::rng::CandidateNumber;
+
+    fn lost(run: i64, number: u64, generation: u32) -> Write {
+        Write::LeaseLost {
+            run,
+            number: CandidateNumber(number),
+            generation,
+            attempts: 1,
+            worker: 7,
+        }
+    }
+
+    fn step(run: i64, generation: u32, next_candidate: u64) -> Write {
+        Write::Step(Box::new(StepCommit {
+            run,
+            position: RunPosition {
+                generation,
+                initial_passed: 400,
+                next_candidate,
+                finished: false,
+            },
+            candidates: Vec::new(),
+            elites: Vec::new(),
+            completed: None,
+        }))
+    }
+
+    #[test]
+    fn only_rows_a_later_step_of_their_run_clears_are_skipped() {
+        let writes = [
+            lost(0, 10, 3), // cleared by run 0's later step (next 20)
+            lost(1, 10, 3), // run 1 has no step in the group
+            lost(0, 25, 3), // beyond the step's next candidate
+            lost(0, 2, 0),  // a spare initial draw: the initial population is done
+            step(0, 3, 20),
+            lost(0, 12, 3), // after the step: written (cannot happen, but must be kept)
+            Write::WorkerLeft {
+                id: 7,
+                results: 0,
+                reason: String::new(),
+            },
+        ];
+        assert_eq!(
+            rows_outliving_the_group(&writes),
+            [false, true, true, false, true, true, true]
+        );
+    }
+
+    #[test]
+    fn spare_initial_draws_stay_while_the_initial_population_is_open() {
+        // Generation 0, not completed: a step clears only applied numbers.
+        let writes = [lost(0, 30, 0), lost(0, 5, 0), step(0, 0, 10)];
+        assert_eq!(rows_outliving_the_group(&writes), [true, false, true]);
+    }
+}
