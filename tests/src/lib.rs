@@ -24,7 +24,9 @@ fn profile_dir() -> PathBuf {
 
 /// Builds every workspace binary once per test process, in the tests' own profile, so a
 /// test never runs a stale binary (cargo does not rebuild other packages' binaries for an
-/// integration-test crate by itself).
+/// integration-test crate by itself). `--tests` makes cargo resolve features as
+/// `cargo test` does (dev-dependencies included), so this reuses the dependencies the
+/// tests were built with instead of building a second copy of them.
 fn ensure_built() {
     static BUILT: OnceLock<()> = OnceLock::new();
     BUILT.get_or_init(|| {
@@ -32,7 +34,7 @@ fn ensure_built() {
         let target = dir.parent().expect("profile dir has a parent");
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
-        cmd.args(["build", "--workspace", "--bins", "--quiet"])
+        cmd.args(["build", "--workspace", "--bins", "--tests", "--quiet"])
             .env("CARGO_TARGET_DIR", target)
             .current_dir(workspace_root());
         if dir.ends_with("release") {
