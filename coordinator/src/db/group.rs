@@ -5,10 +5,10 @@
 //! the service's bottleneck).
 
 use super::{placement_name, Db, DbError, RunPosition, StepCommit, Write};
-use crate::library::{Elite, GenerationStats};
+use crate::library::GenerationStats;
 use sqlx::Row;
 use std::collections::HashMap;
-use strider_common::{CellIndex, InvalidReason, Outcome};
+use strider_common::{InvalidReason, Outcome};
 
 /// Rows per multi-row statement (9 parameters each; SQLite allows 32,766).
 const ROWS_PER_STATEMENT: usize = 1000;
@@ -40,7 +40,7 @@ struct PendingRow {
 struct StepRows {
     run: i64,
     candidates: Vec<CandidateRow>,
-    elites: Vec<(CellIndex, Elite)>,
+    elites: Vec<EliteRow>,
     completed: Option<(u32, GenerationStats)>,
     position: RunPosition,
     initial_population_done: bool,
@@ -57,10 +57,18 @@ struct CandidateRow {
     placement: &'static str,
 }
 
+/// A cell's new holder (the genome is in its candidate row).
+struct EliteRow {
+    cell: i64,
+    candidate: i64,
+    fitness: f64,
+}
+
 fn json(o: &impl serde::Serialize) -> String {
     serde_json::to_string(o).expect("genomes and outcomes serialise")
 }
 
+/// The pending row of a result or a lost lease; `None` for other writes.
 fn pending_row(w: &Write) -> Option<PendingRow> {
     match w {
         Write::Resolved {
@@ -135,7 +143,15 @@ fn step_rows(step: &StepCommit) -> StepRows {
                 }
             })
             .collect(),
-        elites: step.elites.clone(),
+        elites: step
+            .elites
+            .iter()
+            .map(|(cell, elite)| EliteRow {
+                cell: i64::from(cell.0),
+                candidate: elite.candidate.0 as i64,
+                fitness: elite.fitness,
+            })
+            .collect(),
         completed: step.completed,
         position: step.position,
         initial_population_done: step.initial_population_done(),
@@ -150,11 +166,15 @@ impl PreparedGroup {
         let needed = rows_outliving_the_group(writes);
         let mut items = Vec::new();
         for (w, needed) in writes.iter().zip(needed) {
-            match (w, pending_row(w)) {
-                (_, Some(row)) => {
-                    if !needed {
-                        continue;
-                    }
+            match w {
+                Write::Step(step) => items.push(Item::Step(step_rows(step))),
+                Write::WorkerJoined { .. } | Write::WorkerLeft { .. } => {
+                    items.push(Item::Worker(w.clone()))
+                }
+                // Skipped before its outcome is turned into JSON.
+                _ if !needed => {}
+                _ => {
+                    let row = pending_row(w).expect("the other writes are pending rows");
                     // Consecutive pending rows go in one statement (a statement costs far
                     // more than a row).
                     match items.last_mut() {
@@ -164,8 +184,6 @@ impl PreparedGroup {
                         _ => items.push(Item::Pending(vec![row])),
                     }
                 }
-                (Write::Step(step), None) => items.push(Item::Step(step_rows(step))),
-                (other, None) => items.push(Item::Worker(other.clone())),
             }
         }
         Self {
@@ -181,11 +199,6 @@ impl PreparedGroup {
 }
 
 impl Db {
-    /// Applies a group of writes in one transaction.
-    pub async fn write(&self, writes: &[Write]) -> Result<(), DbError> {
-        self.commit(PreparedGroup::new(writes)).await
-    }
-
     /// Commits a prepared group in one transaction (the writer task's group commit).
     pub async fn commit(&self, group: PreparedGroup) -> Result<(), DbError> {
         let mut tx = self.pool.begin().await?;
@@ -203,7 +216,7 @@ impl Db {
 
 /// For each write, whether it must be written: false for a pending row that a later step
 /// of its run in the same group removes from `pending` again.
-pub fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
+fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
     // A run's steps only ever widen what they clear, so its last step in the group
     // decides for every row before it.
     let mut last_step: HashMap<i64, &StepCommit> = HashMap::new();
@@ -325,11 +338,11 @@ async fn write_step(
     for chunk in step.elites.chunks(ROWS_PER_STATEMENT) {
         let mut q =
             sqlx::QueryBuilder::new("INSERT INTO cells (run_id, cell, candidate, fitness) ");
-        q.push_values(chunk, |mut b, (cell, elite)| {
+        q.push_values(chunk, |mut b, e| {
             b.push_bind(run)
-                .push_bind(i64::from(cell.0))
-                .push_bind(elite.candidate.0 as i64)
-                .push_bind(elite.fitness);
+                .push_bind(e.cell)
+                .push_bind(e.candidate)
+                .push_bind(e.fitness);
         });
         q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness");
         q.build().execute(&mut **tx).await?;

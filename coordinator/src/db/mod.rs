@@ -5,7 +5,7 @@
 
 mod group;
 
-pub use group::{rows_outliving_the_group, PreparedGroup};
+pub use group::PreparedGroup;
 
 use crate::library::{Elite, GenerationStats, Library, Placement};
 use sqlx::sqlite::{
