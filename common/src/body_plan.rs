@@ -17,14 +17,22 @@ use crate::params::{
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// The hip's neutral angle: at `q0 = HIP_NEUTRAL` the hip link points straight out from the
-/// body side, so the controller's midpoint (vo 0.5) is a symmetric stance.
-pub const HIP_NEUTRAL: f64 = 0.5;
-/// The knee's bend at `q2 = 0`: the lower leg at a right angle below the upper leg's line.
-/// A positive `q2` opens the knee (turns the lower leg up and outward), the opposite sense
-/// to `q1`, so at `q1 = q2` the lower leg keeps its absolute angle: vertical at the STATIC
-/// stance (both 0.5 rad) and through the whole stride when both joints follow the same
-/// sinusoid, the upper leg alone lifting and lowering the foot.
+/// The stance angle of every joint: at `q = STANCE_ANGLE` each link has its nominal stance
+/// orientation relative to its parent, whatever its hinge axis: the hip link straight out
+/// from the body side, the upper leg 0.5 rad below the hip link's line, the lower leg at
+/// `KNEE_BEND` below the upper leg's line. The controller's midpoint (vo 0.5) is therefore
+/// a symmetric standing posture for every genome; a tilted hinge axis changes the plane a
+/// link swings in about the stance, not the stance itself (docs/model.md section 5).
+pub const STANCE_ANGLE: f64 = 0.5;
+/// The hip's neutral angle: the hip link points straight out from the body side.
+pub const HIP_NEUTRAL: f64 = STANCE_ANGLE;
+/// The knee's bend when the knee is at its stance angle: the lower leg at this angle below
+/// the upper leg's line *plus* the upper leg's own slope, so that at the stance (upper
+/// leg `STANCE_ANGLE` below horizontal) the lower leg is vertical. A positive `q2` opens
+/// the knee (turns the lower leg up and outward), the opposite sense to `q1`, so at
+/// `q1 = q2` the lower leg keeps its absolute angle: vertical through the whole stride
+/// when both joints follow the same sinusoid, the upper leg alone lifting and lowering
+/// the foot.
 pub const KNEE_BEND: f64 = FRAC_PI_2;
 
 /// Smallest gap between the hip roots of a left and a right leg, m.
@@ -108,7 +116,7 @@ pub struct LegPlan {
     pub index: usize,
     /// `u = 1 - 2 i / (n - 1)`: +1 at the front leg, -1 at the back.
     pub u: f64,
-    /// Gait phase `phi`: 0 or pi, alternating with `(index + side) mod 2`.
+    /// Gait phase `phi`: 0 or pi by the tripod pattern ([`tripod_set`]).
     pub phase: f64,
     /// Hip (0), upper leg (1), lower leg (2). Link 0's parent is the body.
     pub links: [LinkPlan; LINKS_PER_LEG],
@@ -172,7 +180,7 @@ impl BodyPlan {
             legs.push(right_leg(m, half, i, n));
         }
         for i in 0..n {
-            legs.push(mirror_leg(&legs[i]));
+            legs.push(mirror_leg(&legs[i], n));
         }
         Self {
             body_half_extents: half,
@@ -225,13 +233,50 @@ pub fn leg_position(i: usize, n: usize) -> f64 {
     1.0 - 2.0 * i as f64 / (n - 1) as f64
 }
 
-/// Gait phase of leg `i` on side `s`: 0 or pi alternating with `(i + s) mod 2`, so that
-/// neighbouring and opposite legs are in antiphase.
-pub fn leg_phase(i: usize, side: Side) -> f64 {
-    if (i + side.index()).is_multiple_of(2) {
-        0.0
+/// Which of the two alternating leg sets of the tripod gait a leg belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TripodSet {
+    /// Gait phase 0: the right side's front and back legs, the left side's middle legs.
+    A,
+    /// Gait phase pi: the other legs.
+    B,
+}
+
+impl TripodSet {
+    /// The set's gait phase `phi`, rad.
+    pub fn phase(self) -> f64 {
+        match self {
+            TripodSet::A => 0.0,
+            TripodSet::B => PI,
+        }
+    }
+}
+
+/// The paper's tripod pattern for leg `i` (0 at the front) of `n` per side on `side`:
+/// "lifts the front and back legs from one side, and the middle leg from the other, per
+/// stride phase ... for four and eight-legged robots the pattern of lift-offs is maintained".
+/// So for n >= 3 the right side's front and back legs and the left side's middle legs form
+/// set A, the rest set B; for n = 2 the diagonal pairs do (a trot). Opposite legs are always
+/// in different sets, and middle legs on one side swing together, so they never sweep
+/// into each other.
+pub fn tripod_set(i: usize, n: usize, side: Side) -> TripodSet {
+    let outer = if n == 2 {
+        // Diagonals: right front with left back.
+        match side {
+            Side::Right => i == 0,
+            Side::Left => i == 1,
+        }
     } else {
-        PI
+        let end = i == 0 || i + 1 == n;
+        match side {
+            Side::Right => end,
+            Side::Left => !end,
+        }
+    };
+    if outer {
+        TripodSet::A
+    } else {
+        TripodSet::B
     }
 }
 
@@ -247,7 +292,7 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
         m.get(M::AttachHeight) * half.y,
         (half.z + m.get(M::SpreadLinRight) * u + m.get(M::SpreadQuadRight) * u2).max(min_z),
     );
-    // Positive pitch tilts the leg's outward direction (+z) upwards.
+    // Positive pitch tilts the hip link's outward direction (+z) upwards.
     let root = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -m.get(M::AttachPitch));
     let length_scale = 1.0 + m.get(M::LengthMult) * u2;
     let strength_scale = 1.0 + 0.1 * m.get(M::StrengthMult) * u2;
@@ -265,30 +310,33 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
             max_speed: m.get(MOTOR_MAX_SPEED[k]),
         };
         let genome_axis = Unit::new_normalize(Vector3::from(LINK_AXIS[k].map(|p| m.get(p))));
-        let (anchor, axis, rest) = match k {
-            // The hip's parent is the body: its axis is given in the leg root frame.
-            0 => {
-                let axis = root * genome_axis;
-                (
-                    attach,
-                    axis,
-                    UnitQuaternion::from_axis_angle(&axis, -HIP_NEUTRAL) * root,
-                )
-            }
-            // The upper leg sits at the hip link's tip; positive turns it down.
+        // (anchor, hinge axis, stance orientation), all in the parent's frame.
+        let (anchor, axis, stance) = match k {
+            // The hip's parent is the body: its axis is given in the body frame (about
+            // up), and at the stance the hip link points straight out, tilted by the
+            // attach pitch.
+            0 => (attach, genome_axis, root),
+            // The upper leg sits at the hip link's tip, 0.5 rad below horizontal at the
+            // stance whatever the pitch; positive turns it down.
             1 => (
                 Vector3::new(0.0, 0.0, m.get(LINK_LENGTH[0]) * length_scale),
                 genome_axis,
-                UnitQuaternion::identity(),
+                UnitQuaternion::from_axis_angle(
+                    &Vector3::x_axis(),
+                    STANCE_ANGLE + m.get(M::AttachPitch),
+                ),
             ),
-            // The lower leg sits at the upper leg's tip; positive opens the knee, so its
-            // hinge turns about the reversed axis.
+            // The lower leg sits at the upper leg's tip, vertical at the stance; positive
+            // opens the knee, so its hinge turns about the reversed axis.
             _ => (
                 Vector3::new(0.0, 0.0, m.get(LINK_LENGTH[1]) * length_scale),
                 -genome_axis,
-                UnitQuaternion::from_axis_angle(&genome_axis, KNEE_BEND),
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), KNEE_BEND - STANCE_ANGLE),
             ),
         };
+        // The joint's zero: the stance orientation turned back by the stance angle about
+        // the joint's own hinge, so that q = STANCE_ANGLE is the stance for any axis.
+        let rest = UnitQuaternion::from_axis_angle(&axis, -STANCE_ANGLE) * stance;
         LinkPlan {
             length,
             width,
@@ -305,7 +353,7 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
         side: Side::Right,
         index: i,
         u,
-        phase: leg_phase(i, Side::Right),
+        phase: tripod_set(i, n, Side::Right).phase(),
         links,
     }
 }
@@ -313,7 +361,7 @@ fn right_leg(m: &Morphology, half: Vector3<f64>, i: usize, n: usize) -> LegPlan 
 /// The left leg opposite `right`. Positions mirror in z; hinge axes mirror as the
 /// pseudovectors they are, so equal joint angles give mirror-image poses and the gait
 /// drives both sides forward.
-fn mirror_leg(right: &LegPlan) -> LegPlan {
+fn mirror_leg(right: &LegPlan, n: usize) -> LegPlan {
     let (mm, d) = (mirror_m(), mirror_d());
     let mut links = right.links;
     for (k, link) in links.iter_mut().enumerate() {
@@ -329,7 +377,7 @@ fn mirror_leg(right: &LegPlan) -> LegPlan {
         side: Side::Left,
         index: right.index,
         u: right.u,
-        phase: leg_phase(right.index, Side::Left),
+        phase: tripod_set(right.index, n, Side::Left).phase(),
         links,
     }
 }
@@ -426,6 +474,75 @@ mod tests {
                     "{q}: {d}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn tripod_pattern_per_leg_count() {
+        use TripodSet::{A, B};
+        let sets = |n: usize, side: Side| -> Vec<TripodSet> {
+            (0..n).map(|i| tripod_set(i, n, side)).collect()
+        };
+        // n = 2: a trot, right front with left back.
+        assert_eq!(sets(2, Side::Right), [A, B]);
+        assert_eq!(sets(2, Side::Left), [B, A]);
+        // n >= 3: the right side's front and back legs with every middle leg on the left.
+        assert_eq!(sets(3, Side::Right), [A, B, A]);
+        assert_eq!(sets(3, Side::Left), [B, A, B]);
+        assert_eq!(sets(4, Side::Right), [A, B, B, A]);
+        assert_eq!(sets(4, Side::Left), [B, A, A, B]);
+        assert_eq!(sets(6, Side::Right), [A, B, B, B, B, A]);
+        assert_eq!(sets(6, Side::Left), [B, A, A, A, A, B]);
+        for n in 2..=6 {
+            let (r, l) = (sets(n, Side::Right), sets(n, Side::Left));
+            // Opposite legs always alternate, and the two sets hold n legs each.
+            assert!(r.iter().zip(&l).all(|(a, b)| a != b), "n = {n}");
+            let in_a = r.iter().chain(&l).filter(|s| **s == A).count();
+            assert_eq!(in_a, n, "n = {n}");
+        }
+        // The body plan carries the phases.
+        let mut g = max_genome();
+        g.morphology.set_clamped(M::LegsPerSide, 4.0);
+        let plan = BodyPlan::new(&g.morphology, 10.0);
+        let phases: Vec<f64> = plan.legs.iter().map(|l| l.phase).collect();
+        assert_eq!(phases, [0.0, PI, PI, 0.0, PI, 0.0, 0.0, PI]);
+    }
+
+    #[test]
+    fn hinge_axis_tilts_and_pitch_leave_the_stance_posture_alone() {
+        // At the stance angles every link has its nominal orientation in the body frame,
+        // whatever the hinge axes: hip link straight out (tilted up by the pitch only),
+        // upper leg 0.5 rad below horizontal, lower leg vertical.
+        let mut g = max_genome();
+        for (p, v) in [
+            (M::AttachPitch, 0.4),
+            (M::Link0AxisX, 0.2),
+            (M::Link0AxisZ, -0.2),
+            (M::Link1AxisY, 0.2),
+            (M::Link1AxisZ, -0.15),
+            (M::Link2AxisY, 0.2),
+            (M::Link2AxisZ, 0.2),
+        ] {
+            g.morphology.set_clamped(p, v);
+        }
+        let plan = BodyPlan::new(&g.morphology, 10.0);
+        for leg in &plan.legs {
+            let out = if leg.side == Side::Right { 1.0 } else { -1.0 };
+            let poses = leg.link_poses([STANCE_ANGLE; 3]);
+            let dir = |k: usize| poses[k].rotation * Vector3::z();
+            let pitch = 0.4f64;
+            assert!((dir(0) - Vector3::new(0.0, pitch.sin(), out * pitch.cos())).norm() < 1e-12);
+            let down = STANCE_ANGLE;
+            assert!((dir(1) - Vector3::new(0.0, -down.sin(), out * down.cos())).norm() < 1e-12);
+            assert!((dir(2) - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12);
+            // The tilted axes do change how the links move about the stance.
+            let moved = leg.link_poses([STANCE_ANGLE, STANCE_ANGLE, STANCE_ANGLE + 0.3])[2]
+                .rotation
+                * Vector3::z();
+            assert!(
+                moved.x.abs() > 1e-3,
+                "a tilted knee swings partly fore and aft"
+            );
         }
     }
 

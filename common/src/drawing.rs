@@ -164,13 +164,15 @@ struct Frame {
     top: f64,
     min_across: f64,
     max_up: f64,
+    /// Pixels per metre.
+    scale: f64,
 }
 
 impl Frame {
     fn px(&self, across: f64, up: f64) -> (f64, f64) {
         (
-            self.left + (across - self.min_across) * PX_PER_M,
-            self.top + (self.max_up - up) * PX_PER_M,
+            self.left + (across - self.min_across) * self.scale,
+            self.top + (self.max_up - up) * self.scale,
         )
     }
 }
@@ -250,6 +252,7 @@ pub fn views_svg(parts: &[Part], title: &str) -> String {
             top: top + (tallest - (e.3 - e.2)) * PX_PER_M,
             min_across: e.0,
             max_up: e.3,
+            scale: PX_PER_M,
         };
         let _ = writeln!(
             body,
@@ -323,6 +326,7 @@ pub fn replay_svg(plan: &BodyPlan, frames: &[Frame3], title: &str) -> String {
         top: MARGIN + 40.0,
         min_across: e.0 - 0.1,
         max_up: e.3,
+        scale: PX_PER_M,
     };
     let duration = frames.last().map_or(1.0, |f| f.time).max(1e-3);
     let mut body = String::new();
@@ -363,6 +367,109 @@ pub fn replay_svg(plan: &BodyPlan, frames: &[Frame3], title: &str) -> String {
         &format!(
             r#"<text x="{MARGIN}" y="18" font-family="sans-serif" font-size="15">{}</text>
 {body}"#,
+            escape(title)
+        ),
+    )
+}
+
+/// Pixels per metre in filmstrips.
+const FILMSTRIP_PX_PER_M: f64 = 60.0;
+
+/// A trial as a still picture: one row per frame (time, forward distance and body tilt),
+/// each with the side, front and top views to one scale that holds the whole trial, the
+/// views following the body. For looking at a trial on paper or in a report; `eval
+/// --filmstrip` writes one.
+pub fn filmstrip_svg(plan: &BodyPlan, frames: &[Frame3], title: &str) -> String {
+    let scale = FILMSTRIP_PX_PER_M;
+    let all: Vec<Vec<Part>> = frames
+        .iter()
+        .map(|f| parts(plan, &f.body, &f.angles))
+        .collect();
+    // Every view's extent about the body's own position, over all frames, so that rows
+    // line up and a robot that topples or spreads stays in its box.
+    let mut ext: Vec<(f64, f64, f64, f64)> =
+        vec![(f64::INFINITY, f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY); View::ALL.len()];
+    let follow = |view: View, f: &Frame3| {
+        let b = f.body.translation.vector;
+        match view {
+            View::Side => (b.x, 0.0),
+            View::Front => (-b.z, 0.0),
+            View::Top => (b.x, -b.z),
+        }
+    };
+    for (f, p) in frames.iter().zip(&all) {
+        for (i, view) in View::ALL.iter().enumerate() {
+            let (da, du) = follow(*view, f);
+            let e = extent(*view, p);
+            let x = &mut ext[i];
+            *x = (
+                x.0.min(e.0 - da),
+                x.1.max(e.1 - da),
+                x.2.min(e.2 - du),
+                x.3.max(e.3 - du),
+            );
+        }
+    }
+    let row_height = ext.iter().map(|e| e.3 - e.2).fold(0.5f64, f64::max) * scale + 26.0;
+    let label_width = 150.0;
+    let mut body = String::new();
+    let mut width: f64 = 0.0;
+    for (r, (f, p)) in frames.iter().zip(&all).enumerate() {
+        let top = MARGIN + 30.0 + r as f64 * row_height;
+        let up = f.body.rotation * Vector3::y();
+        let tilt = up.y.clamp(-1.0, 1.0).acos().to_degrees();
+        let _ = writeln!(
+            body,
+            r#"<text x="{MARGIN}" y="{:.1}" font-family="sans-serif" font-size="12">t = {:.2} s</text><text x="{MARGIN}" y="{:.1}" font-family="sans-serif" font-size="12">x = {:.2} m, tilt {tilt:.0}°</text>"#,
+            top + 14.0,
+            f.time,
+            top + 30.0,
+            f.body.translation.x
+        );
+        let mut left = MARGIN + label_width;
+        for (i, view) in View::ALL.iter().enumerate() {
+            let (da, du) = follow(*view, f);
+            let e = ext[i];
+            let frame = Frame {
+                left,
+                top: top
+                    + 18.0
+                    + (ext.iter().map(|e| e.3 - e.2).fold(0.5f64, f64::max) - (e.3 - e.2)) * scale,
+                min_across: e.0 + da,
+                max_up: e.3 + du,
+                scale,
+            };
+            if r == 0 {
+                let _ = writeln!(
+                    body,
+                    r##"<text x="{left:.1}" y="{:.1}" font-family="sans-serif" font-size="13" font-weight="bold">{}</text>"##,
+                    top + 8.0,
+                    view.name()
+                );
+            }
+            if view.shows_ground() {
+                ground(&mut body, &frame, e.0 + da, e.1 + da);
+            }
+            draw_parts(&mut body, *view, p, &frame);
+            left += (e.1 - e.0) * scale + MARGIN;
+        }
+        width = width.max(left);
+    }
+    let bar_y = MARGIN + 30.0 + frames.len() as f64 * row_height + 20.0;
+    let mut bar = String::new();
+    let _ = writeln!(
+        bar,
+        r##"<g><line x1="{MARGIN}" y1="{bar_y:.1}" x2="{:.1}" y2="{bar_y:.1}" stroke="black" stroke-width="3"/><text x="{:.1}" y="{:.1}" font-family="sans-serif" font-size="12">1 m; right legs blue, left legs orange</text></g>"##,
+        MARGIN + scale,
+        MARGIN + scale + 10.0,
+        bar_y + 4.0
+    );
+    svg_document(
+        width.max(400.0),
+        bar_y + 20.0,
+        &format!(
+            r#"<text x="{MARGIN}" y="22" font-family="sans-serif" font-size="15">{}</text>
+{body}{bar}"#,
             escape(title)
         ),
     )

@@ -54,6 +54,29 @@ impl RunSettings {
     }
 }
 
+/// When a trial ends because the robot fell (spec section 3): `[trial]` in the
+/// experiment file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrialLimits {
+    /// Largest tilt of the body from upright, degrees.
+    pub max_tilt_degrees: f64,
+    /// Lowest body-centre height, as a fraction of its height in the start pose.
+    pub min_height_fraction: f64,
+    /// Whether a part other than a lower leg touching the ground ends the trial.
+    pub only_feet_on_ground: bool,
+}
+
+impl Default for TrialLimits {
+    fn default() -> Self {
+        Self {
+            max_tilt_degrees: 45.0,
+            min_height_fraction: 0.5,
+            only_feet_on_ground: true,
+        }
+    }
+}
+
 /// An experiment: schemes x repeats runs, each with its own seed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -73,6 +96,9 @@ pub struct Experiment {
     /// Shared run settings.
     #[serde(default)]
     pub run: RunSettings,
+    /// When a robot counts as fallen.
+    #[serde(default)]
+    pub trial: TrialLimits,
     /// The design brief.
     #[serde(default)]
     pub brief: DesignBrief,
@@ -210,6 +236,18 @@ impl Experiment {
         check_real("run.control_hz", r.control_hz, 1.0, 1000.0)?;
         check_int("run.physics_substeps", r.physics_substeps, 1, 64)?;
         check_int("run.es_iterations", r.es_iterations, 1, 10_000)?;
+        check_real(
+            "trial.max_tilt_degrees",
+            self.trial.max_tilt_degrees,
+            1.0,
+            180.0,
+        )?;
+        check_real(
+            "trial.min_height_fraction",
+            self.trial.min_height_fraction,
+            0.0,
+            1.0,
+        )?;
         let b = &self.brief;
         check_real("brief.max_mass", b.max_mass, 0.0, 10_000.0)?;
         check_real("brief.min_height", b.min_height, 0.0, 100.0)?;
@@ -291,6 +329,7 @@ mod tests {
         assert_eq!(e.run.control_steps(), 150);
         assert_eq!(e.offspring_per_run(), 240_000);
         assert_eq!(e.brief, DesignBrief::default());
+        assert_eq!(e.trial, TrialLimits::default());
         assert_eq!(e.features, FeatureGrid::default());
         assert_eq!(e.mutation, MutationRates::default());
     }

@@ -5,12 +5,14 @@
 
 pub mod body_plan;
 pub mod brief;
+pub mod contact;
 pub mod drawing;
 pub mod experiment;
 pub mod features;
 pub mod gait;
 pub mod genome;
 pub mod inspect;
+pub mod kinematics;
 pub mod mass;
 pub mod outcome;
 pub mod params;
@@ -25,7 +27,7 @@ pub use brief::DesignBrief;
 pub use experiment::Experiment;
 pub use features::{CellIndex, FeatureGrid, Features};
 pub use genome::{Controller, Genome, Morphology};
-pub use outcome::{InvalidReason, Outcome, TrialStats};
+pub use outcome::{Fall, InvalidReason, Outcome, Standing, TrialStats};
 pub use pose::StartPose;
 pub use variation::{MutationRates, Scheme};
 

@@ -44,6 +44,21 @@ pub enum InvalidReason {
         /// The offending speed, m/s or rad/s.
         speed: f64,
     },
+    /// The robot fell: it tilted too far, sank too low, or rested on a part other than a
+    /// lower leg (limits: the experiment's `[trial]` table).
+    Fell {
+        /// What happened.
+        fall: Fall,
+    },
+    /// Parts touch already in the start pose (a check before simulating, like mass and
+    /// height): two parts not joined by a hinge, or a part other than a lower leg and the
+    /// ground.
+    StartPoseContact {
+        /// One part, e.g. "right leg 0 link 1".
+        first: String,
+        /// The other part, or "ground".
+        second: String,
+    },
     /// The robot did not move forward (d <= 0), so its cost of transport is undefined.
     NoForwardProgress {
         /// Its distance, m.
@@ -67,6 +82,10 @@ impl std::fmt::Display for InvalidReason {
             }
             InvalidReason::NonFinite { what } => write!(f, "non-finite {what}"),
             InvalidReason::BlowUp { speed } => write!(f, "simulation blew up (speed {speed:.1})"),
+            InvalidReason::Fell { fall } => write!(f, "fell: {fall}"),
+            InvalidReason::StartPoseContact { first, second } => {
+                write!(f, "{first} and {second} touch in the start pose")
+            }
             InvalidReason::NoForwardProgress { distance } => {
                 write!(f, "no forward progress (distance {distance:.3} m)")
             }
@@ -74,6 +93,93 @@ impl std::fmt::Display for InvalidReason {
                 write!(f, "evaluation failed {attempts} times (last: {last})")
             }
         }
+    }
+}
+
+/// How a robot fell (spec section 3: a robot that falls is not walking).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "how", rename_all = "snake_case")]
+pub enum Fall {
+    /// The body tilted more than the limit from upright.
+    Tilted {
+        /// The body's tilt (angle between its up axis and the vertical), degrees.
+        degrees: f64,
+        /// The limit, degrees.
+        limit: f64,
+    },
+    /// The body's centre dropped below the limit.
+    Sank {
+        /// The body centre's height, m.
+        height: f64,
+        /// The limit (a fraction of the start pose's body height), m.
+        limit: f64,
+    },
+    /// A part other than a lower leg touched the ground (a body or knee dragged).
+    Dragged {
+        /// The part, e.g. "right leg 1 link 1" or "body".
+        part: String,
+    },
+}
+
+impl std::fmt::Display for Fall {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fall::Tilted { degrees, limit } => {
+                write!(f, "body tilted {degrees:.1} degrees (limit {limit:.1})")
+            }
+            Fall::Sank { height, limit } => {
+                write!(f, "body centre sank to {height:.3} m (limit {limit:.3} m)")
+            }
+            Fall::Dragged { part } => write!(f, "{part} touched the ground"),
+        }
+    }
+}
+
+/// Where an outcome stands against the brief, as one total order (higher is closer):
+/// what the ES keeps and how the infeasible library ranks (docs/model.md section 7).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Standing {
+    /// Stopped by a check before simulating (mass, height, start-pose contact) or never
+    /// evaluated: nothing to rank it by.
+    NotSimulated,
+    /// The trial ended early (self-contact, fell, blew up): later is closer.
+    EndedEarly {
+        /// Simulated time when it stopped, s.
+        at_time: f64,
+    },
+    /// The trial ran to the end upright but missed the speed: faster is closer (backward
+    /// is negative).
+    TooSlow {
+        /// Average forward speed, m/s.
+        speed: f64,
+    },
+    /// Met the whole brief: fitter is better.
+    Feasible {
+        /// 1 / cost of transport.
+        fitness: f64,
+    },
+}
+
+impl Standing {
+    fn tier(&self) -> (u8, f64) {
+        match *self {
+            Standing::NotSimulated => (0, 0.0),
+            Standing::EndedEarly { at_time } => (1, at_time),
+            Standing::TooSlow { speed } => (2, speed),
+            Standing::Feasible { fitness } => (3, fitness),
+        }
+    }
+
+    /// The total order: by tier, then by the tier's figure (`f64::total_cmp`).
+    pub fn cmp(&self, other: &Standing) -> std::cmp::Ordering {
+        let (ta, a) = self.tier();
+        let (tb, b) = other.tier();
+        ta.cmp(&tb).then(a.total_cmp(&b))
+    }
+
+    /// Whether `self` ranks strictly above `other`.
+    pub fn beats(&self, other: &Standing) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Greater
     }
 }
 
@@ -138,6 +244,33 @@ impl Outcome {
             Outcome::Valid { stats, .. } => Some(stats),
             Outcome::Rejected { stats, .. } => stats.as_ref(),
             Outcome::Invalid { .. } => None,
+        }
+    }
+
+    /// Where this outcome stands against the brief.
+    pub fn standing(&self) -> Standing {
+        match self {
+            Outcome::Valid { fitness, .. } => Standing::Feasible { fitness: *fitness },
+            Outcome::Rejected {
+                stats: Some(stats), ..
+            } => Standing::TooSlow { speed: stats.speed },
+            Outcome::Rejected { stats: None, .. } => Standing::NotSimulated,
+            Outcome::Invalid {
+                reason, at_time, ..
+            } => match reason {
+                InvalidReason::NoForwardProgress { distance } if *at_time > 0.0 => {
+                    Standing::TooSlow {
+                        speed: distance / at_time,
+                    }
+                }
+                InvalidReason::StartPoseContact { .. }
+                | InvalidReason::EvaluationFailed { .. }
+                | InvalidReason::NoForwardProgress { .. } => Standing::NotSimulated,
+                InvalidReason::SelfContact { .. }
+                | InvalidReason::Fell { .. }
+                | InvalidReason::NonFinite { .. }
+                | InvalidReason::BlowUp { .. } => Standing::EndedEarly { at_time: *at_time },
+            },
         }
     }
 

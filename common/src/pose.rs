@@ -2,6 +2,7 @@
 //! the body level and its lowest point resting on the ground (y = 0).
 
 use crate::body_plan::BodyPlan;
+use crate::contact::{first_touch, part_boxes, Touch};
 use crate::gait::leg_targets;
 use crate::genome::Controller;
 use crate::params::LINKS_PER_LEG;
@@ -82,6 +83,14 @@ impl StartPose {
             height: top + body_height,
             lowest_point: lowest + lift.vector,
         }
+    }
+}
+
+impl StartPose {
+    /// The first contact in this pose that the trial would refuse: two parts not joined
+    /// by a hinge, or a part other than a lower leg on the ground.
+    pub fn touch(&self, plan: &BodyPlan) -> Option<Touch> {
+        first_touch(&part_boxes(plan, &self.body, &self.link_poses), true)
     }
 }
 

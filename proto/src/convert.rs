@@ -6,7 +6,14 @@ use crate::v1;
 use strider_common::brief::{Constraint, Violation};
 use strider_common::features::{CellIndex, Features, FEATURE_COUNT};
 use strider_common::genome::{GenomeError, ParamVector};
-use strider_common::{Controller, Genome, InvalidReason, Morphology, Outcome, Scheme, TrialStats};
+use strider_common::{
+    Controller, Fall, Genome, InvalidReason, Morphology, Outcome, Scheme, TrialStats,
+};
+
+/// `Invalid.quantity` of a REASON_FELL: how the robot fell.
+const FALL_TILTED: &str = "tilted";
+const FALL_SANK: &str = "sank";
+const FALL_DRAGGED: &str = "dragged";
 
 /// A message that does not describe a valid model value; names the field.
 #[derive(Debug, thiserror::Error)]
@@ -159,6 +166,30 @@ impl From<&Outcome> for v1::Outcome {
                         w.reason = Reason::NonFinite.into();
                         w.quantity = what.clone();
                     }
+                    InvalidReason::Fell { fall } => {
+                        w.reason = Reason::Fell.into();
+                        match fall {
+                            Fall::Tilted { degrees, limit } => {
+                                w.quantity = FALL_TILTED.into();
+                                w.value = *degrees;
+                                w.limit = *limit;
+                            }
+                            Fall::Sank { height, limit } => {
+                                w.quantity = FALL_SANK.into();
+                                w.value = *height;
+                                w.limit = *limit;
+                            }
+                            Fall::Dragged { part } => {
+                                w.quantity = FALL_DRAGGED.into();
+                                w.first_part = part.clone();
+                            }
+                        }
+                    }
+                    InvalidReason::StartPoseContact { first, second } => {
+                        w.reason = Reason::StartPoseContact.into();
+                        w.first_part = first.clone();
+                        w.second_part = second.clone();
+                    }
                     InvalidReason::BlowUp { speed } => {
                         w.reason = Reason::BlowUp.into();
                         w.value = *speed;
@@ -271,6 +302,33 @@ impl TryFrom<&v1::Outcome> for Outcome {
                     },
                     Ok(Reason::NonFinite) => InvalidReason::NonFinite {
                         what: i.quantity.clone(),
+                    },
+                    Ok(Reason::Fell) => InvalidReason::Fell {
+                        fall: match i.quantity.as_str() {
+                            FALL_TILTED => Fall::Tilted {
+                                degrees: finite("outcome.invalid.value", i.value)?,
+                                limit: finite("outcome.invalid.limit", i.limit)?,
+                            },
+                            FALL_SANK => Fall::Sank {
+                                height: finite("outcome.invalid.value", i.value)?,
+                                limit: finite("outcome.invalid.limit", i.limit)?,
+                            },
+                            FALL_DRAGGED => Fall::Dragged {
+                                part: i.first_part.clone(),
+                            },
+                            other => {
+                                return Err(wire_err(
+                                    "outcome.invalid.quantity",
+                                    format!(
+                                        "{other:?} is not a fall; expected {FALL_TILTED:?}, {FALL_SANK:?} or {FALL_DRAGGED:?}"
+                                    ),
+                                ))
+                            }
+                        },
+                    },
+                    Ok(Reason::StartPoseContact) => InvalidReason::StartPoseContact {
+                        first: i.first_part.clone(),
+                        second: i.second_part.clone(),
                     },
                     Ok(Reason::BlowUp) => InvalidReason::BlowUp {
                         speed: finite("outcome.invalid.value", i.value)?,

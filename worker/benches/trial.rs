@@ -33,13 +33,27 @@ fn trials(c: &mut Criterion) {
     for n in [2, 3, 4, 6] {
         let g = walker(n);
         let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
-        let end = run_trial(&plan, &Controller::static_default(), &ctx.settings, &mut ());
+        let end = run_trial(
+            &plan,
+            &Controller::static_default(),
+            &ctx.settings,
+            &ctx.limits,
+            &mut (),
+        );
         assert!(
             matches!(end, TrialEnd::Completed(_)),
             "{n} legs per side: {end:?}"
         );
         group.bench_with_input(BenchmarkId::new("legs_per_side", n), &plan, |b, plan| {
-            b.iter(|| run_trial(plan, &Controller::static_default(), &ctx.settings, &mut ()))
+            b.iter(|| {
+                run_trial(
+                    plan,
+                    &Controller::static_default(),
+                    &ctx.settings,
+                    &ctx.limits,
+                    &mut (),
+                )
+            })
         });
     }
     group.finish();

@@ -19,6 +19,7 @@ fn main() {
             &plan,
             &Controller::static_default(),
             &ctx.settings,
+            &ctx.limits,
             &mut (),
         ));
     }

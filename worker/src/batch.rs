@@ -27,16 +27,27 @@ pub fn default_threads() -> NonZeroUsize {
 
 /// Evaluates every job on `threads` threads; `outcomes[i]` belongs to `jobs[i]`.
 pub fn evaluate_batch(ctx: &EvalContext, jobs: &[Job], threads: NonZeroUsize) -> Vec<Outcome> {
+    map_batch(jobs, threads, |job| {
+        evaluate(ctx, &job.genome, job.scheme, job.seed)
+    })
+}
+
+/// `f` of every item on `threads` threads; `out[i] = f(&items[i])`.
+pub fn map_batch<T: Sync, R: Send>(
+    items: &[T],
+    threads: NonZeroUsize,
+    f: impl Fn(&T) -> R + Sync,
+) -> Vec<R> {
     let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<Outcome>>> = jobs.iter().map(|_| Mutex::new(None)).collect();
-    let threads = threads.get().min(jobs.len()).max(1);
+    let slots: Vec<Mutex<Option<R>>> = items.iter().map(|_| Mutex::new(None)).collect();
+    let threads = threads.get().min(items.len()).max(1);
     std::thread::scope(|s| {
         for _ in 0..threads {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(job) = jobs.get(i) else { break };
-                let outcome = evaluate(ctx, &job.genome, job.scheme, job.seed);
-                *slots[i].lock().expect("no thread panics holding a slot") = Some(outcome);
+                let Some(item) = items.get(i) else { break };
+                let r = f(item);
+                *slots[i].lock().expect("no thread panics holding a slot") = Some(r);
             });
         }
     });
@@ -45,7 +56,7 @@ pub fn evaluate_batch(ctx: &EvalContext, jobs: &[Job], threads: NonZeroUsize) ->
         .map(|m| {
             m.into_inner()
                 .expect("slot lock")
-                .expect("every job was evaluated")
+                .expect("every item was mapped")
         })
         .collect()
 }

@@ -4,35 +4,17 @@
 //! parameter (the same Gaussian rule as reproduction) and the child replaces the parent if
 //! it ranks strictly higher. The result is the parent at the end: the best found.
 //!
-//! Ranking (**choice**, documented in docs/model.md): valid outcomes by fitness, above
-//! outcomes rejected only for speed (ranked by speed, so the strategy can climb toward the
-//! brief), above everything else. Plain fitness comparison would leave the strategy blind
-//! until a child happened to pass the brief.
+//! Ranking (**choice**, documented in docs/model.md section 7): the one total order of
+//! [`strider_common::Standing`]: valid outcomes by fitness, above trials that ran to the
+//! end upright but too slowly (by speed, so the strategy can climb toward the brief), above
+//! trials that ended early (self-contact, a fall; later is better), above children
+//! stopped before simulating. A fallen child thus ranks below every child that stayed up.
+//! Plain fitness comparison would leave the strategy blind until a child passed the brief.
 
 use crate::evaluate::{evaluate_controller, EvalContext};
 use rand::Rng;
-use strider_common::brief::Constraint;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Genome, Outcome};
-
-/// A total order on outcomes for the strategy: (tier, score), higher is better.
-fn rank(o: &Outcome) -> (u8, f64) {
-    match o {
-        Outcome::Valid { fitness, .. } => (2, *fitness),
-        Outcome::Rejected {
-            violations,
-            stats: Some(stats),
-            ..
-        } if violations.iter().all(|v| v.constraint == Constraint::Speed) => (1, stats.speed),
-        _ => (0, 0.0),
-    }
-}
-
-fn better(a: &Outcome, b: &Outcome) -> bool {
-    let (ta, sa) = rank(a);
-    let (tb, sb) = rank(b);
-    ta > tb || (ta == tb && sa > sb)
-}
 
 /// Tunes the controller of `genome`'s morphology; returns the best outcome found.
 pub fn tune_controller(
@@ -55,7 +37,7 @@ fn tune_with<R: Rng>(ctx: &EvalContext, genome: &Genome, plan: &BodyPlan, rng: &
         let mut child = *best.controller();
         child.mutate_all(rng);
         let outcome = evaluate_controller(ctx, genome, plan, &child, &mut ());
-        if better(&outcome, &best) {
+        if outcome.standing().beats(&best.standing()) {
             best = outcome;
         }
     }

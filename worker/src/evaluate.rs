@@ -2,18 +2,22 @@
 //! controller scheme (STATIC, GENOME, or ES tuning) around them.
 
 use crate::es::tune_controller;
-use crate::sim::trial::{run_trial, Observer, TrialEnd};
+use crate::sim::trial::{run_trial_from, Observer, TrialEnd};
 use strider_common::brief::DesignBrief;
-use strider_common::experiment::{Experiment, RunSettings};
+use strider_common::experiment::{Experiment, RunSettings, TrialLimits};
 use strider_common::features::FeatureGrid;
 use strider_common::rng::CandidateSeed;
-use strider_common::{BodyPlan, Controller, Features, Genome, Outcome, Scheme, StartPose};
+use strider_common::{
+    BodyPlan, Controller, Features, Genome, InvalidReason, Outcome, Scheme, StartPose,
+};
 
 /// What a run fixes for every evaluation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EvalContext {
     /// Trial length, rates, ES iterations.
     pub settings: RunSettings,
+    /// When a robot counts as fallen.
+    pub limits: TrialLimits,
     /// Constraints.
     pub brief: DesignBrief,
     /// Feature binning.
@@ -25,6 +29,7 @@ impl EvalContext {
     pub fn of(e: &Experiment) -> Self {
         Self {
             settings: e.run,
+            limits: e.trial,
             brief: e.brief,
             grid: e.features,
         }
@@ -34,6 +39,7 @@ impl EvalContext {
     pub fn paper() -> Self {
         Self {
             settings: RunSettings::default(),
+            limits: TrialLimits::default(),
             brief: DesignBrief::default(),
             grid: FeatureGrid::default(),
         }
@@ -59,7 +65,8 @@ pub fn evaluate(
 }
 
 /// The outcome of `evaluate` when it is decided without a trial (the design fails the
-/// brief's mass or height limit), computed in microseconds; `None` when a trial is needed.
+/// brief's mass or height limit, or its parts touch in the start pose), computed in
+/// microseconds; `None` when a trial is needed.
 /// The coordinator settles such candidates itself instead of sending them to a worker.
 pub fn precheck(ctx: &EvalContext, genome: &Genome, scheme: Scheme) -> Option<Outcome> {
     let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
@@ -81,12 +88,30 @@ pub fn precheck_plan(
     if scheme == Scheme::Es && plan.mass_without_payload() <= ctx.brief.max_mass {
         return None;
     }
-    let pose = StartPose::new(plan, &controller);
-    let violations = ctx.brief.check_model(plan, &pose);
-    (!violations.is_empty()).then_some(Outcome::Rejected {
-        violations,
-        stats: None,
-        controller,
+    check_before_trial(ctx, plan, &StartPose::new(plan, &controller), &controller)
+}
+
+/// The checks made before simulating: the brief's mass and height, then contacts in the
+/// start pose. `None` when the design may be simulated.
+fn check_before_trial(
+    ctx: &EvalContext,
+    plan: &BodyPlan,
+    pose: &StartPose,
+    controller: &Controller,
+) -> Option<Outcome> {
+    let violations = ctx.brief.check_model(plan, pose);
+    if !violations.is_empty() {
+        return Some(Outcome::Rejected {
+            violations,
+            stats: None,
+            controller: *controller,
+        });
+    }
+    let (first, second) = pose.touch(plan)?.describe(plan);
+    Some(Outcome::Invalid {
+        reason: InvalidReason::StartPoseContact { first, second },
+        at_time: 0.0,
+        controller: *controller,
     })
 }
 
@@ -99,16 +124,18 @@ pub fn evaluate_controller(
     observer: &mut impl Observer,
 ) -> Outcome {
     let pose = StartPose::new(plan, controller);
-    let violations = ctx.brief.check_model(plan, &pose);
-    if !violations.is_empty() {
-        // A design that cannot meet the brief is not simulated.
-        return Outcome::Rejected {
-            violations,
-            stats: None,
-            controller: *controller,
-        };
+    // A design that cannot meet the brief, or starts with parts touching, is not simulated.
+    if let Some(outcome) = check_before_trial(ctx, plan, &pose, controller) {
+        return outcome;
     }
-    let stats = match run_trial(plan, controller, &ctx.settings, observer) {
+    let stats = match run_trial_from(
+        plan,
+        &pose,
+        controller,
+        &ctx.settings,
+        &ctx.limits,
+        observer,
+    ) {
         TrialEnd::Completed(stats) => stats,
         TrialEnd::Stopped { reason, at_time } => {
             return Outcome::Invalid {
@@ -120,7 +147,7 @@ pub fn evaluate_controller(
     };
     if stats.distance <= 0.0 {
         return Outcome::Invalid {
-            reason: strider_common::InvalidReason::NoForwardProgress {
+            reason: InvalidReason::NoForwardProgress {
                 distance: stats.distance,
             },
             at_time: stats.duration,
@@ -137,7 +164,7 @@ pub fn evaluate_controller(
     let fitness = 1.0 / stats.cost_of_transport;
     if !fitness.is_finite() {
         return Outcome::Invalid {
-            reason: strider_common::InvalidReason::NonFinite {
+            reason: InvalidReason::NonFinite {
                 what: "fitness".into(),
             },
             at_time: stats.duration,

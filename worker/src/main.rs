@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use strider_common::drawing::{design_svg, replay_svg};
+use strider_common::drawing::{design_svg, filmstrip_svg, replay_svg};
 use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::StartPose;
@@ -94,6 +94,10 @@ enum Command {
         /// Write a replay of the trial: an animated side view (SVG; opens in a browser).
         #[arg(long)]
         replay: Option<PathBuf>,
+        /// Write the trial as a still picture (SVG): side, front and top views every half
+        /// second and at the end.
+        #[arg(long)]
+        filmstrip: Option<PathBuf>,
     },
     /// Print a genome's masses, start-pose height, features, cell and static brief checks.
     Inspect {
@@ -140,6 +144,10 @@ enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also write one CSV row per design: its outcome, the figures computed without
+        /// physics, and the cause found for a failure.
+        #[arg(long)]
+        csv: Option<PathBuf>,
     },
 }
 
@@ -254,6 +262,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trace,
             svg,
             replay,
+            filmstrip,
         } => {
             let g = Genome::load(&genome)?;
             let ctx = context(experiment.as_deref())?;
@@ -276,12 +285,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 std::fs::write(&path, design_svg(&plan, &pose, &title))
                     .with_context(|| format!("writing {}", path.display()))?;
             }
-            if let Some(path) = replay {
+            if replay.is_some() || filmstrip.is_some() {
                 let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
                 let mut frames = Replay::default();
                 evaluate_controller(&ctx, &g, &plan, outcome.controller(), &mut frames);
-                std::fs::write(&path, replay_svg(&plan, &frames.frames, &title))
-                    .with_context(|| format!("writing {}", path.display()))?;
+                if let Some(path) = replay {
+                    std::fs::write(&path, replay_svg(&plan, &frames.frames, &title))
+                        .with_context(|| format!("writing {}", path.display()))?;
+                }
+                if let Some(path) = filmstrip {
+                    let stills = frames.every(0.5);
+                    std::fs::write(&path, filmstrip_svg(&plan, &stills, &title))
+                        .with_context(|| format!("writing {}", path.display()))?;
+                }
             }
             if json {
                 println!(
@@ -309,10 +325,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             threads,
             experiment,
             json,
+            csv,
         } => {
             let ctx = context(experiment.as_deref())?;
             let threads = threads.unwrap_or_else(default_threads);
-            emit(&Survey::run(&ctx, scheme, seed, count, threads), json)
+            let survey = Survey::run(&ctx, scheme, seed, count, threads);
+            if let Some(path) = csv {
+                let file = std::fs::File::create(&path)
+                    .with_context(|| format!("creating {}", path.display()))?;
+                let mut out = std::io::BufWriter::new(file);
+                survey
+                    .write_csv(&mut out)
+                    .and_then(|()| std::io::Write::flush(&mut out))
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+            emit(&survey, json)
         }
         Command::Random {
             seed,

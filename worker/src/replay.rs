@@ -15,6 +15,24 @@ pub struct Replay {
     pub frames: Vec<Frame3>,
 }
 
+impl Replay {
+    /// The first frame, one frame every `seconds` after it, and the last frame.
+    pub fn every(&self, seconds: f64) -> Vec<Frame3> {
+        let mut out: Vec<Frame3> = Vec::new();
+        for f in &self.frames {
+            if out.last().is_none_or(|l| f.time - l.time >= seconds - 1e-9) {
+                out.push(f.clone());
+            }
+        }
+        if let (Some(last), Some(kept)) = (self.frames.last(), out.last()) {
+            if last.time > kept.time {
+                out.push(last.clone());
+            }
+        }
+        out
+    }
+}
+
 impl Observer for Replay {
     fn control_step(&mut self, s: &Sample<'_>) {
         let due = self

@@ -1,10 +1,11 @@
-//! The coordinator settles designs that fail the brief's static checks without a trial
-//! (`precheck`); that must give exactly what a worker's `evaluate` would.
+//! The coordinator settles designs that fail the brief's static checks or start with parts
+//! touching without a trial (`precheck`); that must give exactly what a worker's
+//! `evaluate` would.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use strider_common::rng::CandidateSeed;
-use strider_common::{Genome, Outcome, Scheme};
+use strider_common::{Genome, InvalidReason, Outcome, Scheme};
 use strider_worker::evaluate::{evaluate, precheck, EvalContext};
 
 #[test]
@@ -17,7 +18,14 @@ fn precheck_agrees_with_evaluate_whenever_it_decides() {
             let genome = Genome::random(scheme, &mut rng);
             if let Some(quick) = precheck(&ctx, &genome, scheme) {
                 decided += 1;
-                assert!(matches!(quick, Outcome::Rejected { stats: None, .. }));
+                assert!(matches!(
+                    quick,
+                    Outcome::Rejected { stats: None, .. }
+                        | Outcome::Invalid {
+                            reason: InvalidReason::StartPoseContact { .. },
+                            ..
+                        }
+                ));
                 let full = evaluate(&ctx, &genome, scheme, CandidateSeed::new(5, n));
                 assert_eq!(quick, full, "{scheme} candidate {n}");
             }

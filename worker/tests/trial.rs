@@ -3,9 +3,12 @@
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
 use std::num::NonZeroUsize;
+use strider_common::experiment::TrialLimits;
 use strider_common::params::{M, MOTOR_MAX_SPEED};
 use strider_common::rng::{CandidateSeed, Purpose};
-use strider_common::{BodyPlan, Controller, Genome, InvalidReason, Outcome, Scheme, StartPose};
+use strider_common::{
+    BodyPlan, Controller, Fall, Genome, InvalidReason, Outcome, Scheme, StartPose,
+};
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
 use strider_worker::sim::trial::{run_trial, run_trial_with, Observer, Sample, TrialEnd, GRAVITY};
@@ -76,6 +79,7 @@ fn zero_amplitude_robot_stands_still_and_spends_almost_nothing() {
         &plan,
         &Controller::static_default(),
         &ctx().settings,
+        &ctx().limits,
         &mut rec,
     );
     let TrialEnd::Completed(stats) = end else {
@@ -111,6 +115,7 @@ fn lifting_the_robot_costs_at_least_m_g_h() {
         &plan,
         &start,
         &ctx().settings,
+        &ctx().limits,
         |_, t| [0.5, lift(t), lift(t)],
         &mut rec,
     );
@@ -273,4 +278,168 @@ fn static_checks_reject_without_simulating() {
         }
         other => panic!("expected a height rejection, got {other:?}"),
     }
+}
+
+/// MAX from its stance, every leg driven toward `q(leg, t)`: how the trial ends under
+/// `limits`.
+fn scripted(
+    limits: TrialLimits,
+    q: impl Fn(&strider_common::body_plan::LegPlan, f64) -> [f64; 3],
+) -> TrialEnd {
+    let g = max();
+    let plan = BodyPlan::new(&g.morphology, 10.0);
+    let start = StartPose::with_angles(&plan, vec![[0.5; 3]; plan.legs.len()]);
+    run_trial_with(
+        &plan,
+        &start,
+        &ctx().settings,
+        &limits,
+        |leg, t| q(&plan.legs[leg], t),
+        &mut (),
+    )
+}
+
+/// A ramp from 0 at t = 0.3 s to 1 at t = 1.3 s.
+fn ramp(t: f64) -> f64 {
+    ((t - 0.3) / 1.0).clamp(0.0, 1.0)
+}
+
+#[test]
+fn a_robot_that_tips_over_has_fallen() {
+    // The right legs fold up while the left legs push down: the body rolls onto its right
+    // side. Only the tilt limit is left on, so that it is the one that fires.
+    let limits = TrialLimits {
+        min_height_fraction: 0.0,
+        only_feet_on_ground: false,
+        ..TrialLimits::default()
+    };
+    let end = scripted(limits, |leg, t| {
+        if leg.side == strider_common::body_plan::Side::Right {
+            [0.5, 0.5 - 1.5 * ramp(t), 0.5 - 1.5 * ramp(t)]
+        } else {
+            [0.5, 0.5 + 0.8 * ramp(t), 0.5]
+        }
+    });
+    match end {
+        TrialEnd::Stopped {
+            reason:
+                InvalidReason::Fell {
+                    fall: Fall::Tilted { degrees, limit },
+                },
+            at_time,
+        } => {
+            println!("tilted {degrees:.1} degrees at {at_time:.2} s");
+            assert!(degrees > 45.0 && limit == 45.0);
+            assert!(at_time > 0.3 && at_time < 5.0);
+        }
+        other => panic!("expected a tilt, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_robot_that_sinks_onto_its_body_has_fallen() {
+    // Every upper leg rises above horizontal: the body comes down on its legs' hips.
+    let limits = TrialLimits {
+        max_tilt_degrees: 180.0,
+        only_feet_on_ground: false,
+        ..TrialLimits::default()
+    };
+    let end = scripted(limits, |_, t| {
+        [0.5, 0.5 - 1.2 * ramp(t), 0.5 - 1.2 * ramp(t)]
+    });
+    let start_height =
+        StartPose::with_angles(&BodyPlan::new(&max().morphology, 10.0), vec![[0.5; 3]; 6])
+            .body_height;
+    match end {
+        TrialEnd::Stopped {
+            reason:
+                InvalidReason::Fell {
+                    fall: Fall::Sank { height, limit },
+                },
+            ..
+        } => {
+            println!("sank to {height:.3} m (limit {limit:.3} m)");
+            assert!((limit - 0.5 * start_height).abs() < 1e-3, "{limit}");
+            assert!(height < limit);
+        }
+        other => panic!("expected sinking, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_robot_that_drags_its_knees_has_fallen() {
+    // Every knee opens until the lower legs point outward and up: the knees (the upper
+    // legs' tips) come down onto the ground. The height limit is off so that the ground
+    // contact is what ends it.
+    let limits = TrialLimits {
+        min_height_fraction: 0.0,
+        ..TrialLimits::default()
+    };
+    let end = scripted(limits, |_, t| [0.5, 0.5, 0.5 + 2.0 * ramp(t)]);
+    match end {
+        TrialEnd::Stopped {
+            reason:
+                InvalidReason::Fell {
+                    fall: Fall::Dragged { part },
+                },
+            at_time,
+        } => {
+            println!("{part} touched the ground at {at_time:.2} s");
+            assert!(
+                part.ends_with("link 1") || part.ends_with("link 0"),
+                "{part}"
+            );
+        }
+        other => panic!("expected a knee on the ground, got {other:?}"),
+    }
+}
+
+#[test]
+fn the_default_limits_end_a_collapse_and_leave_a_standing_robot_alone() {
+    let end = scripted(TrialLimits::default(), |_, t| {
+        [0.5, 0.5 - 1.2 * ramp(t), 0.5 - 1.2 * ramp(t)]
+    });
+    assert!(
+        matches!(
+            end,
+            TrialEnd::Stopped {
+                reason: InvalidReason::Fell { .. },
+                ..
+            }
+        ),
+        "{end:?}"
+    );
+    let end = scripted(TrialLimits::default(), |_, _| [0.5; 3]);
+    assert!(matches!(end, TrialEnd::Completed(_)), "{end:?}");
+}
+
+#[test]
+fn parts_touching_in_the_start_pose_are_rejected_before_simulating() {
+    // Hips swung 1.5 rad forward: each leg lies along the body into the leg in front.
+    let mut g = max();
+    g.controller
+        .set_clamped(strider_common::params::C::VerticalOffset0, 2.0);
+    let o = evaluate(&ctx(), &g, Scheme::Genome, CandidateSeed::new(0, 0));
+    match &o {
+        Outcome::Invalid {
+            reason: InvalidReason::StartPoseContact { first, second },
+            at_time,
+            ..
+        } => {
+            println!("{first} and {second} touch in the start pose");
+            assert_eq!(*at_time, 0.0);
+            assert!(first.contains("leg") || second.contains("leg"));
+        }
+        other => panic!("expected a start-pose contact, got {other:?}"),
+    }
+    // The coordinator's check before leasing says the same, without a trial.
+    assert_eq!(
+        strider_worker::evaluate::precheck(&ctx(), &g, Scheme::Genome),
+        Some(o)
+    );
+    // MAX itself starts clear.
+    assert_eq!(
+        strider_worker::evaluate::precheck(&ctx(), &max(), Scheme::Static),
+        None
+    );
 }

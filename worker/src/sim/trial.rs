@@ -1,6 +1,7 @@
 //! One trial (spec section 3): the robot walks for the trial's duration under its
 //! controller; the energy, distance and cost of transport are measured, and the trial stops
-//! early on a self-contact, a non-finite value or a blow-up.
+//! early on a self-contact, a fall (tilt, sinking, a part other than a lower leg on the
+//! ground), a non-finite value or a blow-up.
 //!
 //! Torque accounting. Rapier integrates a joint spring by backward Euler: over a step the
 //! joint receives `tau = k (rest - q_n) - (k dt + d) v_{n+1}` (with `q_n` the angle before
@@ -10,13 +11,14 @@
 //! integrated: `E += |tau * v_{n+1}| dt`, the exact work of that torque under rapier's
 //! position update `q_{n+1} = q_n + dt v_{n+1}`.
 
-use super::world::{part_name, RobotWorld, GROUND_TAG, HINGE_DOF_AXIS};
+use super::world::{part_of_tag, RobotWorld, GROUND_TAG, HINGE_DOF_AXIS};
 use ::nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use rapier3d::prelude::*;
 use strider_common::body_plan::BodyPlan;
-use strider_common::experiment::RunSettings;
+use strider_common::contact::Part;
+use strider_common::experiment::{RunSettings, TrialLimits};
 use strider_common::gait::leg_targets;
-use strider_common::outcome::{InvalidReason, TrialStats};
+use strider_common::outcome::{Fall, InvalidReason, TrialStats};
 use strider_common::params::LINKS_PER_LEG;
 use strider_common::{Controller, StartPose};
 
@@ -75,13 +77,27 @@ pub fn run_trial<O: Observer>(
     plan: &BodyPlan,
     controller: &Controller,
     settings: &RunSettings,
+    limits: &TrialLimits,
     observer: &mut O,
 ) -> TrialEnd {
     let start = StartPose::new(plan, controller);
+    run_trial_from(plan, &start, controller, settings, limits, observer)
+}
+
+/// [`run_trial`] from a start pose already computed (`StartPose::new(plan, controller)`).
+pub fn run_trial_from<O: Observer>(
+    plan: &BodyPlan,
+    start: &StartPose,
+    controller: &Controller,
+    settings: &RunSettings,
+    limits: &TrialLimits,
+    observer: &mut O,
+) -> TrialEnd {
     run_trial_with(
         plan,
-        &start,
+        start,
         settings,
+        limits,
         |leg, t| leg_targets(controller, &plan.legs[leg], t),
         observer,
     )
@@ -93,6 +109,7 @@ pub fn run_trial_with<O: Observer>(
     plan: &BodyPlan,
     start: &StartPose,
     settings: &RunSettings,
+    limits: &TrialLimits,
     targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
     observer: &mut O,
 ) -> TrialEnd {
@@ -102,6 +119,7 @@ pub fn run_trial_with<O: Observer>(
     let steps = settings.control_steps() as usize * substeps;
     let total_mass = plan.total_mass();
     let com_start = centre_of_mass(&rw);
+    let falls = FallCheck::new(limits, start);
 
     let n = rw.joints.len();
     let mut targets = vec![0.0; n];
@@ -157,15 +175,7 @@ pub fn run_trial_with<O: Observer>(
                 time,
             );
         }
-        if let Some((first, second)) = self_contact(&rw) {
-            return stopped(
-                InvalidReason::SelfContact {
-                    first: part_name(plan, first),
-                    second: part_name(plan, second),
-                },
-                time,
-            );
-        }
+        // The observer sees the step that ends a trial too (a replay shows the fall).
         if O::WANTS_SAMPLES && (step + 1) % substeps == 0 {
             let mb = rw.robot();
             for (i, slot) in rw.joints.iter().enumerate() {
@@ -181,6 +191,12 @@ pub fn run_trial_with<O: Observer>(
                 energy,
                 com: centre_of_mass(&rw),
             });
+        }
+        if let Some(reason) = contacts(&rw, limits.only_feet_on_ground, plan) {
+            return stopped(reason, time);
+        }
+        if let Some(fall) = falls.check(&rw) {
+            return stopped(InvalidReason::Fell { fall }, time);
         }
     }
 
@@ -248,24 +264,85 @@ fn drive_joints(
     }
 }
 
-/// The first pair of robot parts in real contact (not merely predicted), if any.
-fn self_contact(rw: &RobotWorld) -> Option<(u128, u128)> {
+/// The body's tilt and height limits of a trial, precomputed.
+struct FallCheck {
+    /// The tilt limit, degrees.
+    max_tilt: f64,
+    /// cos of the tilt limit: the smallest y component of the body's up axis.
+    min_up_y: f32,
+    /// The lowest body-centre height, m.
+    min_height: f32,
+}
+
+impl FallCheck {
+    fn new(limits: &TrialLimits, start: &StartPose) -> Self {
+        Self {
+            max_tilt: limits.max_tilt_degrees,
+            min_up_y: limits.max_tilt_degrees.to_radians().cos() as f32,
+            min_height: (limits.min_height_fraction * start.body_height) as f32,
+        }
+    }
+
+    /// A fall of the body (tilt or height), if any.
+    fn check(&self, rw: &RobotWorld) -> Option<Fall> {
+        let p = rw.world.bodies[rw.parts[0].0].position();
+        let r = p.rotation;
+        // The y component of the body's rotated up axis: cos of its tilt.
+        let up_y = 1.0 - 2.0 * (r.x * r.x + r.z * r.z);
+        if up_y < self.min_up_y {
+            return Some(Fall::Tilted {
+                degrees: f64::from(up_y.clamp(-1.0, 1.0)).acos().to_degrees(),
+                limit: self.max_tilt,
+            });
+        }
+        if p.translation.y < self.min_height {
+            return Some(Fall::Sank {
+                height: f64::from(p.translation.y),
+                limit: f64::from(self.min_height),
+            });
+        }
+        None
+    }
+}
+
+/// Contacts that end the trial, from the pairs in real contact (not merely predicted): two
+/// robot parts not joined by a hinge (hinged pairs have contacts off), else, when
+/// `feet_only`, a part other than a lower leg on the ground.
+fn contacts(rw: &RobotWorld, feet_only: bool, plan: &BodyPlan) -> Option<InvalidReason> {
     let colliders = &rw.world.colliders;
+    let mut dragged = None;
     for pair in rw.world.narrow_phase.contact_pairs() {
         let a = colliders[pair.collider1].user_data;
         let b = colliders[pair.collider2].user_data;
-        if a == GROUND_TAG || b == GROUND_TAG {
+        let on_ground = a == GROUND_TAG || b == GROUND_TAG;
+        if on_ground && (!feet_only || dragged.is_some()) {
             continue;
         }
-        if pair
+        let touching = pair
             .manifolds()
             .iter()
-            .any(|m| m.points.iter().any(|p| p.dist <= 0.0))
-        {
-            return Some((a.min(b), a.max(b)));
+            .any(|m| m.points.iter().any(|p| p.dist <= 0.0));
+        if !touching {
+            continue;
+        }
+        if on_ground {
+            let part = part_of_tag(a.min(b));
+            if !part.may_touch_ground() {
+                dragged = Some(part);
+            }
+        } else {
+            let (first, second) = (part_of_tag(a.min(b)), part_of_tag(a.max(b)));
+            return Some(InvalidReason::SelfContact {
+                first: first.name(plan),
+                second: second.name(plan),
+            });
         }
     }
-    None
+    dragged.map(|part: Part| InvalidReason::Fell {
+        fall: Fall::Dragged {
+            part: part.name(plan),
+        },
+    })
 }
 
 fn body_pose(rw: &RobotWorld) -> Isometry3<f64> {

@@ -7,7 +7,8 @@
 
 use ::nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
 use rapier3d::prelude::*;
-use strider_common::body_plan::{BodyPlan, Side};
+use strider_common::body_plan::BodyPlan;
+use strider_common::contact::Part;
 use strider_common::mass::MassProperties as ModelMass;
 use strider_common::params::LINKS_PER_LEG;
 use strider_common::StartPose;
@@ -77,18 +78,24 @@ fn mass_props(m: &ModelMass) -> MassProperties {
     MassProperties::with_inertia_matrix(vec3(m.com), m.mass as f32, mat)
 }
 
-/// A human name for a collider tag, for self-contact reports.
-pub fn part_name(plan: &BodyPlan, tag: u128) -> String {
+/// The collider tag of a robot part.
+pub fn tag_of(part: Part) -> u128 {
+    match part {
+        Part::Body => BODY_TAG,
+        Part::Link { leg, link } => 1 + (leg * LINKS_PER_LEG + link) as u128,
+    }
+}
+
+/// The robot part a collider tag stands for (not the ground's).
+pub fn part_of_tag(tag: u128) -> Part {
     if tag == BODY_TAG {
-        return "body".into();
+        return Part::Body;
     }
     let i = (tag - 1) as usize;
-    let leg = &plan.legs[i / LINKS_PER_LEG];
-    let side = match leg.side {
-        Side::Right => "right",
-        Side::Left => "left",
-    };
-    format!("{side} leg {} link {}", leg.index, i % LINKS_PER_LEG)
+    Part::Link {
+        leg: i / LINKS_PER_LEG,
+        link: i % LINKS_PER_LEG,
+    }
 }
 
 /// A rotation whose x axis is `axis` (the revolute joint turns about its frame's x).
@@ -159,7 +166,10 @@ impl RobotWorld {
                         .translation(Vector::new(0.0, 0.0, (0.5 * link.length) as f32))
                         .density(0.0)
                         .friction(GROUND_FRICTION)
-                        .user_data(1 + (leg_index * LINKS_PER_LEG + k) as u128),
+                        .user_data(tag_of(Part::Link {
+                            leg: leg_index,
+                            link: k,
+                        })),
                     rb,
                     &mut world.bodies,
                 );
