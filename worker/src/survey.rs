@@ -254,6 +254,47 @@ impl Cause {
         Cause::GaitTooSlow,
     ];
 
+    /// Whether a design's figures show this cause (whatever became of it); `None` when
+    /// the design is outside the population the check compares: falls are compared among
+    /// designs whose gait sweeps no parts together (a self-contact would end the trial
+    /// first), backward walking among designs upright to the end.
+    fn holds(self, r: &Record, brief_distance: f64) -> Option<bool> {
+        let sweeps = r.gait_contact_at.is_some();
+        Some(match self {
+            Cause::GaitSweepsPartsTogether => {
+                r.gait_distance?;
+                r.gait_contact_at.is_some()
+            }
+            Cause::LiftingMotorsTooWeak if !sweeps => r.stance_load? > 1.0,
+            Cause::UnstableSupport if !sweeps => r.support_margin? <= 0.0,
+            Cause::LiftingMotorsTooWeak | Cause::UnstableSupport => return None,
+            Cause::GaitPushesBackward if r.verdict.upright_to_the_end() => r.gait_distance? <= 0.0,
+            Cause::GaitPushesBackward => return None,
+            Cause::GaitTooSlow => r.gait_distance? < brief_distance,
+        })
+    }
+
+    /// Whether `v` is the failure this cause explains.
+    fn explains(self, v: Verdict) -> bool {
+        match self {
+            Cause::GaitSweepsPartsTogether => matches!(v, Verdict::SelfContact { .. }),
+            Cause::LiftingMotorsTooWeak | Cause::UnstableSupport => {
+                matches!(v, Verdict::Fell { .. })
+            }
+            Cause::GaitPushesBackward => v == Verdict::Backward,
+            Cause::GaitTooSlow => v != Verdict::Passed,
+        }
+    }
+
+    fn failure_label(self) -> &'static str {
+        match self {
+            Cause::GaitSweepsPartsTogether => "self-contact",
+            Cause::LiftingMotorsTooWeak | Cause::UnstableSupport => "fell",
+            Cause::GaitPushesBackward => "backward",
+            Cause::GaitTooSlow => "missed the brief",
+        }
+    }
+
     fn label(self) -> &'static str {
         match self {
             Cause::GaitSweepsPartsTogether => "the gait sweeps parts into each other",
@@ -474,6 +515,10 @@ pub struct Survey {
     /// Pearson's r between the distance walked and the gait's no-slip distance, over the
     /// designs upright to the end.
     pub gait_correlation: (Option<f64>, usize),
+    /// Per cause, over simulated designs: (designs showing it, share of them with the
+    /// failure it explains, designs not showing it, share of those with that failure). A
+    /// cause that explains a failure makes it much likelier.
+    pub cause_checks: Vec<(Cause, usize, f64, usize, f64)>,
     /// Every design, in candidate order (for `--csv`).
     #[serde(skip)]
     pub records: Vec<Record>,
@@ -496,10 +541,11 @@ impl Survey {
             let outcome = evaluate(ctx, &genome, scheme, s);
             Record::of(ctx, scheme, i, &genome, &outcome)
         });
-        Self::of_records(scheme, seed, records)
+        let brief_distance = ctx.brief.min_speed * ctx.settings.trial_seconds;
+        Self::of_records(scheme, seed, brief_distance, records)
     }
 
-    fn of_records(scheme: Scheme, seed: u64, records: Vec<Record>) -> Self {
+    fn of_records(scheme: Scheme, seed: u64, brief_distance: f64, records: Vec<Record>) -> Self {
         let verdicts = Verdict::all();
         let mut all = Tally::new();
         let mut per: Vec<(usize, Tally)> = (2..=6).map(|n| (n, Tally::new())).collect();
@@ -536,9 +582,43 @@ impl Survey {
                 .collect();
             (pearson(&xy), xy.len())
         };
+        let share = |n: usize, of: usize| {
+            if of == 0 {
+                f64::NAN
+            } else {
+                n as f64 / of as f64
+            }
+        };
+        let cause_checks = Cause::ALL
+            .iter()
+            .map(|&c| {
+                let (mut with, mut with_fail, mut without, mut without_fail) = (0, 0, 0, 0);
+                for r in &records {
+                    match c.holds(r, brief_distance) {
+                        Some(true) => {
+                            with += 1;
+                            with_fail += usize::from(c.explains(r.verdict));
+                        }
+                        Some(false) => {
+                            without += 1;
+                            without_fail += usize::from(c.explains(r.verdict));
+                        }
+                        None => {}
+                    }
+                }
+                (
+                    c,
+                    with,
+                    share(with_fail, with),
+                    without,
+                    share(without_fail, without),
+                )
+            })
+            .collect();
         Survey {
             scheme,
             seed,
+            cause_checks,
             all,
             per_leg_count: per,
             estimate_correlation: pairs(Verdict::upright_to_the_end, |r| r.estimate),
@@ -674,6 +754,22 @@ impl fmt::Display for Survey {
             })?;
         }
         row(f, "  no computed cause", &|t| pct(t.unexplained, failed(t)))?;
+        writeln!(
+            f,
+            "does each cause predict its failure? (designs with / without it; falls among designs\n  whose gait sweeps nothing together, backward among those upright to the end)"
+        )?;
+        for (c, with, p_with, without, p_without) in &self.cause_checks {
+            writeln!(
+                f,
+                "  {:<50}{:>6} designs: {:>5.1} % {}; {:>6} without: {:>5.1} %",
+                c.label(),
+                with,
+                100.0 * p_with,
+                c.failure_label(),
+                without,
+                100.0 * p_without
+            )?;
+        }
         let r = |(r, n): (Option<f64>, usize)| match r {
             Some(r) => format!("r = {r:.2} over {n} designs"),
             None => format!("- ({n} designs)"),
