@@ -65,6 +65,9 @@ pub struct TrialLimits {
     pub min_height_fraction: f64,
     /// Whether a part other than a lower leg touching the ground ends the trial.
     pub only_feet_on_ground: bool,
+    /// How long the robot must stay up after the trial, the gait going on, s: a robot that
+    /// falls then was falling at the end (distance and energy count over the trial only).
+    pub upright_after_seconds: f64,
 }
 
 impl Default for TrialLimits {
@@ -73,6 +76,51 @@ impl Default for TrialLimits {
             max_tilt_degrees: 45.0,
             min_height_fraction: 0.5,
             only_feet_on_ground: true,
+            upright_after_seconds: 1.0,
+        }
+    }
+}
+
+/// How a run treats designs that fail the brief (spec section 4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ConstraintHandling {
+    /// Constrained MAP-Elites (after FI-2Pop, Kimbrough et al. 2008, and Khalifa et al.,
+    /// GECCO 2018): a feasible library ranked by fitness and an infeasible library ranked by
+    /// closeness to the brief over the same cells, parents drawn from both; the initial
+    /// population is random designs that pass the checks before simulating.
+    FeasibleInfeasible,
+    /// The paper's method: a design that fails the brief never enters the library, and the
+    /// initial population is drawn until that many designs pass every check.
+    Reject,
+}
+
+impl ConstraintHandling {
+    /// The name in experiment files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConstraintHandling::FeasibleInfeasible => "feasible-infeasible",
+            ConstraintHandling::Reject => "reject",
+        }
+    }
+}
+
+/// How the search handles the brief: `[search]` in the experiment file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SearchSettings {
+    /// Feasible-infeasible libraries (the default) or the paper's rejection.
+    pub constraints: ConstraintHandling,
+    /// Under feasible-infeasible, the chance that an offspring's parent comes from the
+    /// feasible library (1 while the infeasible one is empty, 0 while the feasible one is).
+    pub feasible_parent_share: f64,
+}
+
+impl Default for SearchSettings {
+    fn default() -> Self {
+        Self {
+            constraints: ConstraintHandling::FeasibleInfeasible,
+            feasible_parent_share: 0.5,
         }
     }
 }
@@ -99,6 +147,9 @@ pub struct Experiment {
     /// When a robot counts as fallen.
     #[serde(default)]
     pub trial: TrialLimits,
+    /// How the search handles the brief.
+    #[serde(default)]
+    pub search: SearchSettings,
     /// The design brief.
     #[serde(default)]
     pub brief: DesignBrief,
@@ -248,6 +299,18 @@ impl Experiment {
             0.0,
             1.0,
         )?;
+        check_real(
+            "trial.upright_after_seconds",
+            self.trial.upright_after_seconds,
+            0.0,
+            60.0,
+        )?;
+        check_real(
+            "search.feasible_parent_share",
+            self.search.feasible_parent_share,
+            0.0,
+            1.0,
+        )?;
         let b = &self.brief;
         check_real("brief.max_mass", b.max_mass, 0.0, 10_000.0)?;
         check_real("brief.min_height", b.min_height, 0.0, 100.0)?;
@@ -288,8 +351,8 @@ impl Experiment {
             .collect()
     }
 
-    /// Trials one run evaluates for its generations (the initial population needs more:
-    /// it draws until `initial_population` pass).
+    /// Candidates one run evaluates for its generations (the initial population needs
+    /// more: it draws until `initial_population` pass its checks).
     pub fn offspring_per_run(&self) -> u64 {
         u64::from(self.run.generations) * u64::from(self.run.offspring_per_generation)
     }
@@ -330,6 +393,7 @@ mod tests {
         assert_eq!(e.offspring_per_run(), 240_000);
         assert_eq!(e.brief, DesignBrief::default());
         assert_eq!(e.trial, TrialLimits::default());
+        assert_eq!(e.search, SearchSettings::default());
         assert_eq!(e.features, FeatureGrid::default());
         assert_eq!(e.mutation, MutationRates::default());
     }
@@ -390,6 +454,23 @@ mod tests {
     fn unknown_field_is_named() {
         let e = err(&format!("{MINIMAL}[run]\ngenerationz = 3\n"));
         assert!(e.contains("unknown field `generationz`"), "{e}");
+    }
+
+    #[test]
+    fn constraint_handling_is_named_and_checked() {
+        let e = Experiment::from_toml(&format!("{MINIMAL}[search]\nconstraints = \"reject\"\n"))
+            .unwrap();
+        assert_eq!(e.search.constraints, ConstraintHandling::Reject);
+        let e = err(&format!("{MINIMAL}[search]\nconstraints = \"maybe\"\n"));
+        assert!(
+            e.contains("maybe") && e.contains("feasible-infeasible"),
+            "{e}"
+        );
+        let e = err(&format!("{MINIMAL}[search]\nfeasible_parent_share = 1.5\n"));
+        assert!(
+            e.contains("`search.feasible_parent_share` is 1.5; allowed: 0 to 1"),
+            "{e}"
+        );
     }
 
     #[test]

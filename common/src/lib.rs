@@ -27,7 +27,7 @@ pub use brief::DesignBrief;
 pub use experiment::Experiment;
 pub use features::{CellIndex, FeatureGrid, Features};
 pub use genome::{Controller, Genome, Morphology};
-pub use outcome::{Fall, InvalidReason, Outcome, Standing, TrialStats};
+pub use outcome::{Fall, InvalidReason, Outcome, Shortfall, Standing, TrialStats};
 pub use pose::StartPose;
 pub use variation::{MutationRates, Scheme};
 

@@ -135,9 +135,53 @@ impl std::fmt::Display for Fall {
     }
 }
 
+/// What keeps a simulated design from the brief: the constraint that binds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shortfall {
+    /// Ran to the end upright and forward, below the brief's speed.
+    Speed,
+    /// Ran to the end upright, not forward.
+    Backward,
+    /// Fell (tilted, sank, or dragged a part on the ground).
+    Fell,
+    /// Two of its parts touched.
+    SelfContact,
+    /// The simulation blew up or went non-finite.
+    Unstable,
+}
+
+impl Shortfall {
+    /// Every shortfall, nearest the brief first.
+    pub const ALL: [Shortfall; 5] = [
+        Shortfall::Speed,
+        Shortfall::Backward,
+        Shortfall::Fell,
+        Shortfall::SelfContact,
+        Shortfall::Unstable,
+    ];
+
+    /// Its name (database, CSV, reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            Shortfall::Speed => "speed",
+            Shortfall::Backward => "backward",
+            Shortfall::Fell => "fell",
+            Shortfall::SelfContact => "self_contact",
+            Shortfall::Unstable => "unstable",
+        }
+    }
+
+    /// The shortfall called `name`.
+    pub fn named(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
 /// Where an outcome stands against the brief, as one total order (higher is closer):
-/// what the ES keeps and how the infeasible library ranks (docs/model.md section 7).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// what the ES keeps and how the infeasible library ranks (docs/model.md section 6).
+/// Equality is that order's (figures compared with `f64::total_cmp`).
+#[derive(Clone, Copy, Debug)]
 pub enum Standing {
     /// Stopped by a check before simulating (mass, height, start-pose contact) or never
     /// evaluated: nothing to rank it by.
@@ -170,18 +214,34 @@ impl Standing {
         }
     }
 
-    /// The total order: by tier, then by the tier's figure (`f64::total_cmp`).
-    pub fn cmp(&self, other: &Standing) -> std::cmp::Ordering {
-        let (ta, a) = self.tier();
-        let (tb, b) = other.tier();
-        ta.cmp(&tb).then(a.total_cmp(&b))
-    }
-
     /// Whether `self` ranks strictly above `other`.
     pub fn beats(&self, other: &Standing) -> bool {
         self.cmp(other) == std::cmp::Ordering::Greater
     }
 }
+
+impl Ord for Standing {
+    /// The total order: by tier, then by the tier's figure (`f64::total_cmp`).
+    fn cmp(&self, other: &Standing) -> std::cmp::Ordering {
+        let (ta, a) = self.tier();
+        let (tb, b) = other.tier();
+        ta.cmp(&tb).then(a.total_cmp(&b))
+    }
+}
+
+impl PartialOrd for Standing {
+    fn partial_cmp(&self, other: &Standing) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Standing {
+    fn eq(&self, other: &Standing) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+
+impl Eq for Standing {}
 
 /// The result of evaluating one candidate.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -274,12 +334,170 @@ impl Outcome {
         }
     }
 
+    /// What keeps a simulated design from the brief; `None` for a valid design and for one
+    /// stopped before simulating.
+    pub fn shortfall(&self) -> Option<Shortfall> {
+        match self {
+            Outcome::Valid { .. } | Outcome::Rejected { stats: None, .. } => None,
+            Outcome::Rejected { stats: Some(s), .. } => Some(if s.distance > 0.0 {
+                Shortfall::Speed
+            } else {
+                Shortfall::Backward
+            }),
+            Outcome::Invalid { reason, .. } => match reason {
+                InvalidReason::NoForwardProgress { .. } => Some(Shortfall::Backward),
+                InvalidReason::Fell { .. } => Some(Shortfall::Fell),
+                InvalidReason::SelfContact { .. } => Some(Shortfall::SelfContact),
+                InvalidReason::NonFinite { .. } | InvalidReason::BlowUp { .. } => {
+                    Some(Shortfall::Unstable)
+                }
+                InvalidReason::StartPoseContact { .. } | InvalidReason::EvaluationFailed { .. } => {
+                    None
+                }
+            },
+        }
+    }
+
     /// A short word for tables and logs.
     pub fn kind(&self) -> &'static str {
         match self {
             Outcome::Valid { .. } => "valid",
             Outcome::Rejected { .. } => "rejected",
             Outcome::Invalid { .. } => "invalid",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brief::{Constraint, Violation};
+    use crate::features::{CellIndex, Features};
+
+    fn stats(distance: f64) -> TrialStats {
+        TrialStats {
+            distance,
+            energy: 1000.0,
+            speed: distance / 5.0,
+            mass: 60.0,
+            cost_of_transport: 1.0,
+            duration: 5.0,
+        }
+    }
+
+    fn valid(fitness: f64) -> Outcome {
+        Outcome::Valid {
+            fitness,
+            stats: stats(6.0),
+            features: Features([2.5, 60.0, 3.0, 0.005, 0.0, 0.0]),
+            cell: CellIndex(7),
+            controller: Controller::static_default(),
+        }
+    }
+
+    fn slow(distance: f64) -> Outcome {
+        Outcome::Rejected {
+            violations: vec![Violation {
+                constraint: Constraint::Speed,
+                value: distance / 5.0,
+                limit: 1.0,
+            }],
+            stats: Some(stats(distance)),
+            controller: Controller::static_default(),
+        }
+    }
+
+    fn invalid(reason: InvalidReason, at_time: f64) -> Outcome {
+        Outcome::Invalid {
+            reason,
+            at_time,
+            controller: Controller::static_default(),
+        }
+    }
+
+    fn fell(at_time: f64) -> Outcome {
+        invalid(
+            InvalidReason::Fell {
+                fall: Fall::Tilted {
+                    degrees: 50.0,
+                    limit: 45.0,
+                },
+            },
+            at_time,
+        )
+    }
+
+    #[test]
+    fn outcomes_rank_in_one_total_order_nearest_the_brief_first() {
+        let contact = |t| {
+            invalid(
+                InvalidReason::SelfContact {
+                    first: "a".into(),
+                    second: "b".into(),
+                },
+                t,
+            )
+        };
+        // Best first.
+        let ranked = [
+            valid(2.0),
+            valid(1.0),
+            slow(4.5),
+            slow(0.5),
+            invalid(InvalidReason::NoForwardProgress { distance: -0.2 }, 5.0),
+            fell(4.9),
+            contact(1.0),
+            fell(0.5),
+            Outcome::Rejected {
+                violations: vec![Violation {
+                    constraint: Constraint::Mass,
+                    value: 70.0,
+                    limit: 60.0,
+                }],
+                stats: None,
+                controller: Controller::static_default(),
+            },
+        ];
+        for (i, a) in ranked.iter().enumerate() {
+            for (j, b) in ranked.iter().enumerate() {
+                let want = j.cmp(&i); // earlier in the list ranks higher
+                assert_eq!(
+                    a.standing().cmp(&b.standing()),
+                    want,
+                    "{i} vs {j}: {:?} vs {:?}",
+                    a.standing(),
+                    b.standing()
+                );
+            }
+        }
+        // Designs stopped before simulating tie: none is nearer the brief than another.
+        let start_pose = invalid(
+            InvalidReason::StartPoseContact {
+                first: "a".into(),
+                second: "ground".into(),
+            },
+            0.0,
+        );
+        assert_eq!(start_pose.standing(), Standing::NotSimulated);
+        // A fall at the very end still ranks below standing still to the end.
+        assert!(slow(0.0).standing().beats(&fell(4.99).standing()));
+    }
+
+    #[test]
+    fn the_shortfall_names_the_constraint_that_binds() {
+        assert_eq!(valid(1.0).shortfall(), None);
+        assert_eq!(slow(3.0).shortfall(), Some(Shortfall::Speed));
+        assert_eq!(
+            invalid(InvalidReason::NoForwardProgress { distance: -1.0 }, 5.0).shortfall(),
+            Some(Shortfall::Backward)
+        );
+        assert_eq!(fell(2.0).shortfall(), Some(Shortfall::Fell));
+        assert_eq!(
+            invalid(InvalidReason::BlowUp { speed: 200.0 }, 1.0).shortfall(),
+            Some(Shortfall::Unstable)
+        );
+        for s in Shortfall::ALL {
+            assert_eq!(Shortfall::named(s.name()), Some(s));
         }
     }
 }

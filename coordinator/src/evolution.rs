@@ -1,9 +1,9 @@
 //! Where a run's candidates come from (spec sections 4 and 5): random genomes in candidate
-//! order for the initial population, then offspring of parents drawn uniformly from the
+//! order for the initial population, then offspring of parents drawn uniformly from a
 //! library. Each candidate's draws come from its own stream, so a candidate is a pure
-//! function of (run seed, candidate number, the library it was bred from).
+//! function of (run seed, candidate number, the libraries it was bred from).
 
-use crate::library::Library;
+use crate::library::{InfeasibleLibrary, Library};
 use rand::Rng;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{Genome, MutationRates, Scheme};
@@ -13,18 +13,88 @@ pub fn initial_candidate(scheme: Scheme, seed: CandidateSeed) -> Genome {
     Genome::random(scheme, &mut seed.rng(Purpose::RandomGenome))
 }
 
-/// The offspring of candidate `seed`: a parent drawn uniformly from the library (in cell
-/// order), mutated. `None` when the library is empty.
+/// What parents are drawn from.
+#[derive(Clone, Copy, Debug)]
+pub enum Parents<'a> {
+    /// The paper's method: the feasible library alone.
+    Feasible(&'a Library),
+    /// Feasible-infeasible search: the feasible library with probability `share` (1 while
+    /// the infeasible library is empty, 0 while the feasible one is), else the infeasible.
+    Both {
+        /// Designs that meet the brief.
+        feasible: &'a Library,
+        /// Designs nearest the brief that miss it.
+        infeasible: &'a InfeasibleLibrary,
+        /// The feasible library's share of parents.
+        share: f64,
+    },
+}
+
+/// Which library a parent came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// The feasible library.
+    Feasible,
+    /// The infeasible library.
+    Infeasible,
+}
+
+impl Parents<'_> {
+    /// Draws a parent: under feasible-infeasible search one uniform draw picks the library
+    /// (none under the paper's method, so its runs are what they always were), then one
+    /// picks the elite uniformly in cell order. `None` when there is nothing to draw.
+    pub fn draw<R: Rng>(&self, rng: &mut R) -> Option<(Source, Genome)> {
+        let source = match *self {
+            Parents::Feasible(_) => Source::Feasible,
+            Parents::Both {
+                feasible,
+                infeasible,
+                share,
+            } => {
+                let share = if infeasible.is_empty() {
+                    1.0
+                } else if feasible.is_empty() {
+                    0.0
+                } else {
+                    share
+                };
+                if rng.random::<f64>() < share {
+                    Source::Feasible
+                } else {
+                    Source::Infeasible
+                }
+            }
+        };
+        let genome = match (source, *self) {
+            (Source::Feasible, Parents::Feasible(lib) | Parents::Both { feasible: lib, .. }) => {
+                if lib.is_empty() {
+                    return None;
+                }
+                lib.nth(rng.random_range(0..lib.len()))?.genome
+            }
+            (Source::Infeasible, Parents::Both { infeasible, .. }) => {
+                if infeasible.is_empty() {
+                    return None;
+                }
+                infeasible
+                    .nth(rng.random_range(0..infeasible.len()))?
+                    .genome
+            }
+            (Source::Infeasible, Parents::Feasible(_)) => return None,
+        };
+        Some((source, genome))
+    }
+}
+
+/// The offspring of candidate `seed`: a parent drawn from `parents`, mutated. `None` when
+/// the libraries are empty.
 pub fn offspring(
-    library: &Library,
+    parents: &Parents<'_>,
     scheme: Scheme,
     rates: &MutationRates,
     seed: CandidateSeed,
 ) -> Option<Genome> {
-    if library.is_empty() {
-        return None;
-    }
     let mut rng = seed.rng(Purpose::Reproduction);
-    let parent = library.nth(rng.random_range(0..library.len()))?;
-    Some(parent.genome.offspring(scheme, rates, &mut rng))
+    let (_, parent) = parents.draw(&mut rng)?;
+    Some(parent.offspring(scheme, rates, &mut rng))
 }

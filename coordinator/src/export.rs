@@ -2,7 +2,7 @@
 //! features, fitness, trial statistics and full genome (CSV or JSON), and how an elite is
 //! named on the command line (`RUN:CELL` or `best`). Plain functions over plain data.
 
-use crate::db::RunRecord;
+use crate::db::{RunRecord, StoredInfeasible};
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;
@@ -146,6 +146,39 @@ pub fn json(r: &EliteRow) -> serde_json::Value {
         "features": features,
         "stats": stats,
         "genome": r.genome,
+    })
+}
+
+/// One infeasible elite as a JSON object: where it is, what keeps it from the brief, its
+/// figure in the order of outcomes, the trial's figures (or when and why it ended), and its
+/// genome.
+pub fn infeasible_json(e: &StoredInfeasible) -> serde_json::Value {
+    let (stats, ended) = match &e.outcome {
+        Outcome::Invalid {
+            reason, at_time, ..
+        } => (
+            serde_json::Value::Null,
+            serde_json::json!({
+                "at_time": at_time,
+                "reason": reason,
+                "why": reason.to_string(),
+            }),
+        ),
+        o => (
+            o.stats()
+                .and_then(|s| serde_json::to_value(s).ok())
+                .unwrap_or(serde_json::Value::Null),
+            serde_json::Value::Null,
+        ),
+    };
+    serde_json::json!({
+        "cell": e.cell.0,
+        "candidate": e.candidate.0,
+        "shortfall": e.shortfall.name(),
+        "standing": e.standing,
+        "stats": stats,
+        "ended": ended,
+        "genome": e.genome,
     })
 }
 

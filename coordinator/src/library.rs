@@ -1,11 +1,13 @@
-//! The MAP-Elites library of one run (spec section 5): one elite per cell, a generation's
-//! results applied in candidate order once all are in, and the per-generation statistics.
-//! Plain data; the database stores what this computes.
+//! The MAP-Elites libraries of one run (spec sections 4 and 5): the feasible library (one
+//! elite per cell, ranked by fitness) and, under feasible-infeasible search, the infeasible
+//! library over the same cells (ranked by closeness to the brief, [`Standing`]); a
+//! generation's results applied in candidate order once all are in, and the per-generation
+//! statistics. Plain data; the database stores what this computes.
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use strider_common::rng::CandidateNumber;
-use strider_common::{CellIndex, Genome, Outcome};
+use strider_common::{CellIndex, Genome, Outcome, Shortfall, Standing};
 
 /// The best design found for one cell.
 #[derive(Clone, Debug, PartialEq)]
@@ -18,7 +20,54 @@ pub struct Elite {
     pub fitness: f64,
 }
 
-/// What applying one result did to the library.
+/// The best infeasible design found for one cell: simulated, short of the brief.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InfeasibleElite {
+    /// The candidate that holds the cell.
+    pub candidate: CandidateNumber,
+    /// Its genome (with the controller it was evaluated with).
+    pub genome: Genome,
+    /// How near the brief it came.
+    pub standing: Standing,
+    /// What keeps it from the brief.
+    pub shortfall: Shortfall,
+}
+
+/// What an infeasible result did to the infeasible library.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InfeasiblePlacement {
+    /// Filled an empty cell.
+    New,
+    /// Replaced an elite further from the brief.
+    Improved,
+    /// Its cell's elite is at least as near the brief.
+    Discarded,
+}
+
+impl InfeasiblePlacement {
+    /// Its name in the database.
+    pub fn name(self) -> &'static str {
+        match self {
+            InfeasiblePlacement::New => "new",
+            InfeasiblePlacement::Improved => "improved",
+            InfeasiblePlacement::Discarded => "discarded",
+        }
+    }
+
+    /// The placement called `name`.
+    pub fn named(name: &str) -> Option<Self> {
+        [
+            InfeasiblePlacement::New,
+            InfeasiblePlacement::Improved,
+            InfeasiblePlacement::Discarded,
+        ]
+        .into_iter()
+        .find(|p| p.name() == name)
+    }
+}
+
+/// What applying one result did to the feasible library.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Placement {
@@ -59,6 +108,18 @@ pub struct GenerationStats {
     pub rejected: usize,
     /// Results whose trial failed.
     pub invalid: usize,
+    /// Cells holding an infeasible elite (feasible-infeasible search).
+    #[serde(default)]
+    pub infeasible_elites: usize,
+    /// Cells holding an infeasible elite and no feasible one: where the brief binds.
+    #[serde(default)]
+    pub infeasible_only: usize,
+    /// Results that filled an empty cell of the infeasible library.
+    #[serde(default)]
+    pub infeasible_new: usize,
+    /// Results that replaced an infeasible elite.
+    #[serde(default)]
+    pub infeasible_improved: usize,
 }
 
 impl GenerationStats {
@@ -72,14 +133,74 @@ impl GenerationStats {
             Placement::Invalid => self.invalid += 1,
         }
     }
+
+    /// Counts one result's change to the infeasible library.
+    pub fn record_infeasible(&mut self, p: Option<InfeasiblePlacement>) {
+        match p {
+            Some(InfeasiblePlacement::New) => self.infeasible_new += 1,
+            Some(InfeasiblePlacement::Improved) => self.infeasible_improved += 1,
+            Some(InfeasiblePlacement::Discarded) | None => {}
+        }
+    }
 }
 
-/// One run's library.
+/// Elites by cell, with the occupied cells in order so that drawing the i-th parent is
+/// O(log n), not O(n). What both libraries share.
+#[derive(Clone, Debug, PartialEq)]
+struct Cells<E> {
+    map: BTreeMap<CellIndex, E>,
+    order: Vec<CellIndex>,
+}
+
+impl<E> Default for Cells<E> {
+    fn default() -> Self {
+        Self {
+            map: BTreeMap::new(),
+            order: Vec::new(),
+        }
+    }
+}
+
+impl<E> Cells<E> {
+    fn nth(&self, i: usize) -> Option<&E> {
+        self.order.get(i).and_then(|c| self.map.get(c))
+    }
+
+    /// Puts `e` into `cell`, replacing its holder.
+    fn put(&mut self, cell: CellIndex, e: E) {
+        if self.map.insert(cell, e).is_none() {
+            let at = self.order.partition_point(|c| *c < cell);
+            self.order.insert(at, cell);
+        }
+    }
+
+    /// Offers `e` to `cell`: it fills an empty cell or replaces a holder `beats` says it
+    /// beats strictly.
+    fn offer(&mut self, cell: CellIndex, e: E, beats: impl Fn(&E, &E) -> bool) -> Change {
+        match self.map.get_mut(&cell) {
+            None => {
+                self.put(cell, e);
+                Change::New
+            }
+            Some(old) if beats(&e, old) => {
+                *old = e;
+                Change::Improved
+            }
+            Some(_) => Change::Discarded,
+        }
+    }
+}
+
+enum Change {
+    New,
+    Improved,
+    Discarded,
+}
+
+/// One run's feasible library: the designs that meet the whole brief.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Library {
-    cells: BTreeMap<CellIndex, Elite>,
-    /// The occupied cells in order, so that drawing the i-th parent is O(log n), not O(n).
-    order: Vec<CellIndex>,
+    cells: Cells<Elite>,
 }
 
 impl Library {
@@ -90,39 +211,32 @@ impl Library {
 
     /// Occupied cells.
     pub fn len(&self) -> usize {
-        self.cells.len()
+        self.cells.map.len()
     }
 
     /// Whether no cell is occupied.
     pub fn is_empty(&self) -> bool {
-        self.cells.is_empty()
+        self.cells.map.is_empty()
     }
 
     /// The elite of a cell.
     pub fn get(&self, cell: CellIndex) -> Option<&Elite> {
-        self.cells.get(&cell)
+        self.cells.map.get(&cell)
     }
 
     /// Elites in cell order (the order parents are drawn from).
     pub fn elites(&self) -> impl Iterator<Item = (CellIndex, &Elite)> {
-        self.cells.iter().map(|(c, e)| (*c, e))
+        self.cells.map.iter().map(|(c, e)| (*c, e))
     }
 
     /// The elite at a position in cell order.
     pub fn nth(&self, i: usize) -> Option<&Elite> {
-        self.order.get(i).and_then(|c| self.cells.get(c))
+        self.cells.nth(i)
     }
 
     /// Puts an elite back into its cell (when a library is reloaded from the database).
     pub fn restore(&mut self, cell: CellIndex, elite: Elite) {
-        if self.cells.insert(cell, elite).is_none() {
-            self.occupy(cell);
-        }
-    }
-
-    fn occupy(&mut self, cell: CellIndex) {
-        let at = self.order.partition_point(|c| *c < cell);
-        self.order.insert(at, cell);
+        self.cells.put(cell, elite);
     }
 
     /// Applies one result: a valid design fills an empty cell or replaces a strictly less
@@ -151,17 +265,13 @@ impl Library {
             },
             fitness,
         };
-        match self.cells.get_mut(&cell) {
-            None => {
-                self.cells.insert(cell, elite);
-                self.occupy(cell);
-                Placement::New
-            }
-            Some(old) if fitness > old.fitness => {
-                *old = elite;
-                Placement::Improved
-            }
-            Some(_) => Placement::Discarded,
+        match self
+            .cells
+            .offer(cell, elite, |new, old| new.fitness > old.fitness)
+        {
+            Change::New => Placement::New,
+            Change::Improved => Placement::Improved,
+            Change::Discarded => Placement::Discarded,
         }
     }
 
@@ -189,15 +299,15 @@ impl Library {
     /// `counts` completed with the library's coverage and fitness figures.
     pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
         let mut stats = counts;
-        stats.elites = self.cells.len();
-        stats.coverage = self.cells.len() as f64 / f64::from(cell_count);
-        if self.cells.is_empty() {
+        stats.elites = self.len();
+        stats.coverage = self.len() as f64 / f64::from(cell_count);
+        if self.is_empty() {
             return stats;
         }
         // Sum in cell order so the figure is reproducible to the bit; one pass, since this
         // runs for every generation of every run while the scheduler is locked.
         let (mut sum, mut max, mut min) = (0.0, f64::NEG_INFINITY, f64::INFINITY);
-        for e in self.cells.values() {
+        for e in self.cells.map.values() {
             sum += e.fitness;
             max = f64::max(max, e.fitness);
             min = f64::min(min, e.fitness);
@@ -205,7 +315,90 @@ impl Library {
         stats.qd_score = sum;
         stats.max_fitness = max;
         stats.min_fitness = min;
-        stats.mean_fitness = stats.qd_score / self.cells.len() as f64;
+        stats.mean_fitness = stats.qd_score / self.len() as f64;
+        stats
+    }
+}
+
+/// One run's infeasible library: per cell, the simulated design nearest the brief among
+/// those that miss it (feasible-infeasible search).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct InfeasibleLibrary {
+    cells: Cells<InfeasibleElite>,
+}
+
+impl InfeasibleLibrary {
+    /// Occupied cells.
+    pub fn len(&self) -> usize {
+        self.cells.map.len()
+    }
+
+    /// Whether no cell is occupied.
+    pub fn is_empty(&self) -> bool {
+        self.cells.map.is_empty()
+    }
+
+    /// The elite of a cell.
+    pub fn get(&self, cell: CellIndex) -> Option<&InfeasibleElite> {
+        self.cells.map.get(&cell)
+    }
+
+    /// Elites in cell order.
+    pub fn elites(&self) -> impl Iterator<Item = (CellIndex, &InfeasibleElite)> {
+        self.cells.map.iter().map(|(c, e)| (*c, e))
+    }
+
+    /// The elite at a position in cell order.
+    pub fn nth(&self, i: usize) -> Option<&InfeasibleElite> {
+        self.cells.nth(i)
+    }
+
+    /// Puts an elite back into its cell (when reloaded from the database).
+    pub fn restore(&mut self, cell: CellIndex, elite: InfeasibleElite) {
+        self.cells.put(cell, elite);
+    }
+
+    /// Offers a simulated design that missed the brief, placed in `cell` (its features'
+    /// cell): it fills an empty cell or replaces an elite it ranks strictly above. `None`
+    /// for an outcome that is valid or was not simulated (those are not placed here).
+    pub fn apply(
+        &mut self,
+        candidate: CandidateNumber,
+        genome: &Genome,
+        outcome: &Outcome,
+        cell: CellIndex,
+    ) -> Option<InfeasiblePlacement> {
+        let shortfall = outcome.shortfall()?;
+        let elite = InfeasibleElite {
+            candidate,
+            genome: Genome {
+                morphology: genome.morphology,
+                controller: *outcome.controller(),
+            },
+            standing: outcome.standing(),
+            shortfall,
+        };
+        Some(
+            match self
+                .cells
+                .offer(cell, elite, |new, old| new.standing.beats(&old.standing))
+            {
+                Change::New => InfeasiblePlacement::New,
+                Change::Improved => InfeasiblePlacement::Improved,
+                Change::Discarded => InfeasiblePlacement::Discarded,
+            },
+        )
+    }
+
+    /// `stats` completed with the infeasible library's counts, beside `feasible`.
+    pub fn summary(&self, mut stats: GenerationStats, feasible: &Library) -> GenerationStats {
+        stats.infeasible_elites = self.len();
+        stats.infeasible_only = self
+            .cells
+            .map
+            .keys()
+            .filter(|c| feasible.get(**c).is_none())
+            .count();
         stats
     }
 }

@@ -451,6 +451,8 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             "initial_passed": r.initial_passed, "trials_done": r.trials_done, "trials_pending": r.trials_pending,
             "coverage": r.coverage, "best_fitness": r.best_fitness, "mean_fitness": r.mean_fitness,
             "qd_score": r.qd_score, "finished": r.finished,
+            "feasible_elites": r.feasible_elites, "infeasible_elites": r.infeasible_elites,
+            "infeasible_only": r.infeasible_only,
         })).collect();
         println!(
             "{}",
@@ -465,7 +467,7 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
         "experiment `{}`: {} workers connected, {:.1} trials/s over the last minute",
         p.experiment, p.workers_connected, p.trials_per_second
     );
-    println!("run  scheme   repeat  generation        initial  trials    pending  coverage  best      mean      QD score");
+    println!("run  scheme   repeat  generation        initial  trials    pending  feasible  infeasible only  coverage  best      mean      QD score");
     for r in &p.runs {
         let scheme = strider_proto::convert::scheme_from_wire(r.scheme)
             .map(|s| s.name())
@@ -476,7 +478,7 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             format!("{}/{}", r.generation, r.generations)
         };
         println!(
-            "{:<4} {:<8} {:<7} {:<17} {:<8} {:<9} {:<8} {:<9} {:<9.4} {:<9.4} {:.2}",
+            "{:<4} {:<8} {:<7} {:<17} {:<8} {:<9} {:<8} {:<9} {:<16} {:<9} {:<9.4} {:<9.4} {:.2}",
             r.run,
             scheme,
             r.repeat,
@@ -484,6 +486,8 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             r.initial_passed,
             r.trials_done,
             r.trials_pending,
+            r.feasible_elites,
+            r.infeasible_only,
             format!("{:.2} %", 100.0 * r.coverage),
             r.best_fitness,
             r.mean_fitness,
@@ -538,9 +542,16 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
                     .map(|(g, evaluations, s)| serde_json::json!({"generation": g, "evaluations": evaluations, "stats": s}))
                     .collect();
                 let elites: Vec<_> = rows.iter().map(export::json).collect();
+                let infeasible: Vec<_> = db
+                    .list_infeasible(r.id)
+                    .await?
+                    .iter()
+                    .map(export::infeasible_json)
+                    .collect();
                 json.push(serde_json::json!({
                     "run": r.id, "scheme": r.spec.scheme.name(), "repeat": r.spec.repeat, "seed": r.spec.seed.0,
                     "generation": r.generation, "finished": r.finished, "generations": generations, "elites": elites,
+                    "infeasible": infeasible,
                 }));
             }
             serde_json::to_writer_pretty(
@@ -618,6 +629,7 @@ async fn report(path: &Path, out: &Path, run: Option<i64>) -> anyhow::Result<()>
             scheme: r.spec.scheme,
             repeat: r.spec.repeat,
             library: r.library,
+            infeasible: r.infeasible,
             generations,
         });
     }
@@ -676,6 +688,7 @@ async fn analyse(path: &Path) -> anyhow::Result<()> {
         results.push(RunResult {
             scheme: r.spec.scheme,
             library: &r.library,
+            infeasible: &r.infeasible,
             last,
         });
     }
@@ -714,6 +727,26 @@ fn check(path: &Path) -> anyhow::Result<()> {
         e.brief.min_height,
         e.brief.min_speed,
         e.brief.payload
+    );
+    println!(
+        "search: {}{}; a trial ends when the robot falls: tilt > {} degrees, body centre below {} of its start height{}",
+        e.search.constraints.name(),
+        match e.search.constraints {
+            strider_common::experiment::ConstraintHandling::FeasibleInfeasible => format!(
+                " (feasible and infeasible libraries, {} of parents from the feasible one)",
+                e.search.feasible_parent_share
+            ),
+            strider_common::experiment::ConstraintHandling::Reject => {
+                " (designs that miss the brief are dropped; the initial population is drawn until that many pass)".into()
+            }
+        },
+        e.trial.max_tilt_degrees,
+        e.trial.min_height_fraction,
+        if e.trial.only_feet_on_ground {
+            ", or a part other than a lower leg on the ground"
+        } else {
+            ""
+        }
     );
     for r in runs {
         println!(

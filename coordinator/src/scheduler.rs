@@ -12,12 +12,15 @@
 //! number of workers, nor their speed, nor restarts change a run.
 
 use crate::db::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
-use crate::evolution::{initial_candidate, offspring};
-use crate::library::{GenerationStats, Placement};
+use crate::evolution::{initial_candidate, offspring, Parents};
+use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
+use strider_common::experiment::ConstraintHandling;
 use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
-use strider_common::{Experiment, Genome, InvalidReason, Outcome, Scheme};
+use strider_common::{
+    BodyPlan, CellIndex, Experiment, Features, Genome, InvalidReason, Outcome, Scheme, Standing,
+};
 use strider_worker::evaluate::{precheck, EvalContext};
 
 /// The most initial-population candidates a run draws ahead of the first one not yet
@@ -128,7 +131,8 @@ pub struct RunProgress {
     pub seed: RunSeed,
     /// Last completed generation.
     pub generation: u32,
-    /// Valid candidates of the initial population.
+    /// Candidates of the initial population that count toward its size (valid ones under
+    /// the paper's method; simulated ones under feasible-infeasible search).
     pub initial_passed: u32,
     /// Candidates evaluated (applied or with a result in hand).
     pub trials_done: u64,
@@ -499,14 +503,27 @@ impl Scheduler {
         let r = &self.runs[i].record;
         let (scheme, first, generation) = (r.spec.scheme, r.next_candidate, r.generation + 1);
         let count = u64::from(self.experiment.run.offspring_per_generation);
-        for number in first..first + count {
-            let genome = offspring(
-                &self.runs[i].record.library,
-                scheme,
-                &self.experiment.mutation,
-                self.seed(i, number),
-            )
-            .expect("the library holds the initial population");
+        let record = &self.runs[i].record;
+        let parents = match self.experiment.search.constraints {
+            ConstraintHandling::Reject => Parents::Feasible(&record.library),
+            ConstraintHandling::FeasibleInfeasible => Parents::Both {
+                feasible: &record.library,
+                infeasible: &record.infeasible,
+                share: self.experiment.search.feasible_parent_share,
+            },
+        };
+        let genomes: Vec<Genome> = (first..first + count)
+            .map(|number| {
+                offspring(
+                    &parents,
+                    scheme,
+                    &self.experiment.mutation,
+                    self.seed(i, number),
+                )
+                .expect("the libraries hold the initial population")
+            })
+            .collect();
+        for (number, genome) in (first..first + count).zip(genomes) {
             self.add(i, number, generation, genome);
         }
         // Never lower: spare initial draws above this range may still send late results.
@@ -569,10 +586,11 @@ impl Scheduler {
         let target = self.experiment.run.initial_population;
         let cells = self.experiment.features.cell_count();
         let generations = self.experiment.run.generations;
+        let mode = self.experiment.search.constraints;
         let r = &mut self.runs[i];
         let mut applied = Vec::new();
         let mut stats = GenerationStats::default();
-        let mut changed = BTreeSet::new();
+        let mut changed = Changed::default();
         while r.record.initial_passed < target {
             let n = r.record.next_candidate;
             let resolved = matches!(
@@ -589,24 +607,23 @@ impl Scheduler {
             let State::Resolved(outcome) = p.state else {
                 unreachable!()
             };
-            let placement = r
-                .record
-                .library
-                .apply(CandidateNumber(n), &p.genome, &outcome);
-            stats.record(placement);
-            if let Outcome::Valid { cell, .. } = &outcome {
-                r.record.initial_passed += 1;
-                if matches!(placement, Placement::New | Placement::Improved) {
-                    changed.insert(*cell);
+            let placed = place(&self.ctx, mode, &mut r.record, n, &p.genome, &outcome);
+            placed.count(&mut stats, &mut changed);
+            let counts = match mode {
+                ConstraintHandling::Reject => matches!(outcome, Outcome::Valid { .. }),
+                ConstraintHandling::FeasibleInfeasible => {
+                    outcome.standing() != Standing::NotSimulated
                 }
-            }
+            };
+            r.record.initial_passed += u32::from(counts);
             r.record.next_candidate = n + 1;
             applied.push(AppliedCandidate {
                 number: CandidateNumber(n),
                 generation: 0,
                 genome: p.genome,
                 outcome,
-                placement,
+                placement: placed.feasible,
+                infeasible: placed.infeasible,
             });
         }
         if applied.is_empty() {
@@ -620,7 +637,7 @@ impl Scheduler {
             r.record.generation = 0;
             r.record.finished = generations == 0;
         }
-        let completed = complete.then(|| (0, r.record.library.summary(stats, cells)));
+        let completed = complete.then(|| (0, r.record.summary(stats, cells)));
         self.commit_step(i, applied, changed, completed);
         if complete && !self.runs[i].record.finished {
             self.open_generation(i);
@@ -632,6 +649,7 @@ impl Scheduler {
     fn apply_generation(&mut self, i: usize) -> bool {
         let cells = self.experiment.features.cell_count();
         let generations = self.experiment.run.generations;
+        let mode = self.experiment.search.constraints;
         let r = &mut self.runs[i];
         let complete = !r.step.is_empty()
             && r.step
@@ -642,34 +660,27 @@ impl Scheduler {
         }
         let generation = r.record.generation + 1;
         let mut stats = GenerationStats::default();
-        let mut changed = BTreeSet::new();
+        let mut changed = Changed::default();
         let mut applied = Vec::with_capacity(r.step.len());
         for (n, p) in std::mem::take(&mut r.step) {
             let State::Resolved(outcome) = p.state else {
                 unreachable!()
             };
-            let placement = r
-                .record
-                .library
-                .apply(CandidateNumber(n), &p.genome, &outcome);
-            stats.record(placement);
-            if let (Outcome::Valid { cell, .. }, Placement::New | Placement::Improved) =
-                (&outcome, placement)
-            {
-                changed.insert(*cell);
-            }
+            let placed = place(&self.ctx, mode, &mut r.record, n, &p.genome, &outcome);
+            placed.count(&mut stats, &mut changed);
             r.record.next_candidate = n + 1;
             applied.push(AppliedCandidate {
                 number: CandidateNumber(n),
                 generation,
                 genome: p.genome,
                 outcome,
-                placement,
+                placement: placed.feasible,
+                infeasible: placed.infeasible,
             });
         }
         r.record.generation = generation;
         r.record.finished = generation == generations;
-        let stats = r.record.library.summary(stats, cells);
+        let stats = r.record.summary(stats, cells);
         self.commit_step(i, applied, changed, Some((generation, stats)));
         if !self.runs[i].record.finished {
             self.open_generation(i);
@@ -681,11 +692,25 @@ impl Scheduler {
         &mut self,
         i: usize,
         candidates: Vec<AppliedCandidate>,
-        changed: BTreeSet<strider_common::CellIndex>,
+        changed: Changed,
         completed: Option<(u32, GenerationStats)>,
     ) {
         let r = &self.runs[i].record;
+        let infeasible = changed
+            .infeasible
+            .into_iter()
+            .map(|c| {
+                (
+                    c,
+                    r.infeasible
+                        .get(c)
+                        .expect("changed cells hold an elite")
+                        .clone(),
+                )
+            })
+            .collect();
         let elites = changed
+            .feasible
             .into_iter()
             .map(|c| {
                 (
@@ -702,6 +727,7 @@ impl Scheduler {
             position: r.position(),
             candidates,
             elites,
+            infeasible,
             completed,
         })));
         if completed.is_some() {
@@ -730,7 +756,7 @@ impl Scheduler {
                     initial_passed: r.record.initial_passed,
                     trials_done: r.record.next_candidate + resolved,
                     trials_pending: r.step.len() as u64 - resolved,
-                    library: r.record.library.summary(GenerationStats::default(), cells),
+                    library: r.record.summary(GenerationStats::default(), cells),
                     finished: r.record.finished,
                 }
             })
@@ -741,4 +767,81 @@ impl Scheduler {
     pub fn run(&self, i: usize) -> Option<&RunRecord> {
         self.runs.get(i).map(|r| &r.record)
     }
+}
+
+/// The cells a step changed, in each library.
+#[derive(Default)]
+struct Changed {
+    feasible: BTreeSet<CellIndex>,
+    infeasible: BTreeSet<CellIndex>,
+}
+
+/// What one result did to a run's libraries.
+struct Placed {
+    feasible: Placement,
+    infeasible: Option<InfeasiblePlacement>,
+    /// The cell it was placed in, when it changed a library.
+    cell: Option<CellIndex>,
+}
+
+impl Placed {
+    /// Counts it into a step's statistics and changed cells.
+    fn count(&self, stats: &mut GenerationStats, changed: &mut Changed) {
+        stats.record(self.feasible);
+        stats.record_infeasible(self.infeasible);
+        if let Some(cell) = self.cell {
+            if matches!(self.feasible, Placement::New | Placement::Improved) {
+                changed.feasible.insert(cell);
+            }
+            if matches!(
+                self.infeasible,
+                Some(InfeasiblePlacement::New | InfeasiblePlacement::Improved)
+            ) {
+                changed.infeasible.insert(cell);
+            }
+        }
+    }
+}
+
+/// Applies one result to a run's libraries: a valid design to the feasible library; under
+/// feasible-infeasible search, a simulated design that missed the brief to the infeasible
+/// library, in its features' cell.
+fn place(
+    ctx: &EvalContext,
+    mode: ConstraintHandling,
+    record: &mut RunRecord,
+    number: u64,
+    genome: &Genome,
+    outcome: &Outcome,
+) -> Placed {
+    let candidate = CandidateNumber(number);
+    let feasible = record.library.apply(candidate, genome, outcome);
+    if let Outcome::Valid { cell, .. } = outcome {
+        return Placed {
+            feasible,
+            infeasible: None,
+            cell: Some(*cell),
+        };
+    }
+    if mode == ConstraintHandling::Reject || outcome.shortfall().is_none() {
+        return Placed {
+            feasible,
+            infeasible: None,
+            cell: None,
+        };
+    }
+    let cell = cell_of(ctx, genome);
+    Placed {
+        feasible,
+        infeasible: record.infeasible.apply(candidate, genome, outcome, cell),
+        cell: Some(cell),
+    }
+}
+
+/// The library cell of a design (its features need the body plan: masses).
+pub fn cell_of(ctx: &EvalContext, genome: &Genome) -> CellIndex {
+    let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    ctx.grid
+        .cell_of(&Features::of(&genome.morphology, &plan))
+        .expect("features of a valid genome are finite")
 }

@@ -6,7 +6,7 @@ use strider_common::{
     CellIndex, Controller, Features, Genome, InvalidReason, MutationRates, Outcome, Scheme,
     TrialStats,
 };
-use strider_coordinator::evolution::{initial_candidate, offspring};
+use strider_coordinator::evolution::{initial_candidate, offspring, Parents};
 use strider_coordinator::library::{GenerationStats, Library, Placement};
 
 fn genome(i: u64) -> Genome {
@@ -135,6 +135,7 @@ fn generation_statistics() {
             discarded: 1,
             rejected: 1,
             invalid: 1,
+            ..GenerationStats::default()
         }
     );
 }
@@ -155,7 +156,7 @@ fn a_generation_out_of_order_is_refused() {
 fn offspring_are_reproducible_and_draw_parents_uniformly() {
     let rates = MutationRates::default();
     assert!(offspring(
-        &Library::new(),
+        &Parents::Feasible(&Library::new()),
         Scheme::Static,
         &rates,
         CandidateSeed::new(1, 0)
@@ -167,15 +168,15 @@ fn offspring_are_reproducible_and_draw_parents_uniformly() {
     }
     let seed = CandidateSeed::new(1, 500);
     assert_eq!(
-        offspring(&lib, Scheme::Static, &rates, seed),
-        offspring(&lib, Scheme::Static, &rates, seed)
+        offspring(&Parents::Feasible(&lib), Scheme::Static, &rates, seed),
+        offspring(&Parents::Feasible(&lib), Scheme::Static, &rates, seed)
     );
     // With every rate at 0 a STATIC child is its parent, which identifies the parent.
     let still = MutationRates::uniform(0.0);
     let mut counts = [0usize; 4];
     for n in 0..4000 {
         let child = offspring(
-            &lib,
+            &Parents::Feasible(&lib),
             Scheme::Static,
             &still,
             CandidateSeed::new(1, 1000 + n),
@@ -219,8 +220,20 @@ fn genome_scheme_offspring_evolve_their_controller() {
         },
     );
     let rates = MutationRates::default();
-    let child = offspring(&lib, Scheme::Genome, &rates, CandidateSeed::new(2, 1)).unwrap();
+    let child = offspring(
+        &Parents::Feasible(&lib),
+        Scheme::Genome,
+        &rates,
+        CandidateSeed::new(2, 1),
+    )
+    .unwrap();
     assert_ne!(child.controller, parent.controller);
-    let child = offspring(&lib, Scheme::Static, &rates, CandidateSeed::new(2, 1)).unwrap();
+    let child = offspring(
+        &Parents::Feasible(&lib),
+        Scheme::Static,
+        &rates,
+        CandidateSeed::new(2, 1),
+    )
+    .unwrap();
     assert_eq!(child.controller, parent.controller);
 }

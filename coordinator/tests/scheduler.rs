@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use strider_common::rng::{CandidateNumber, CandidateSeed};
 use strider_common::{Experiment, InvalidReason, Outcome};
 use strider_coordinator::db::{RunRecord, Write};
-use strider_coordinator::library::Library;
+use strider_coordinator::library::{InfeasibleLibrary, Library};
 use strider_coordinator::scheduler::{
     Accepted, Assignment, CandidateKey, Refusal, Scheduler, WorkerId,
 };
@@ -43,6 +43,7 @@ fn fresh(e: &Experiment, max_attempts: u32) -> Scheduler {
             next_candidate: 0,
             finished: false,
             library: Library::new(),
+            infeasible: InfeasibleLibrary::default(),
         })
         .collect();
     Scheduler::new(e.clone(), runs, Vec::new(), LEASE, max_attempts)
@@ -59,13 +60,23 @@ fn outcome_of(e: &Experiment, a: &Assignment) -> Outcome {
 }
 
 /// Runs to the end with `workers` workers each holding up to `slots`, answering in the
-/// order `reorder` gives; returns every run's library.
+/// order `reorder` gives; returns every run's libraries.
 fn drive(
     workers: u64,
     slots: usize,
     reorder: impl Fn(&mut Vec<(WorkerId, Assignment)>),
-) -> Vec<Library> {
-    let e = experiment();
+) -> Vec<(Library, InfeasibleLibrary)> {
+    drive_experiment(&experiment(), workers, slots, reorder).0
+}
+
+/// [`drive`] for any experiment; also returns the scheduler at the end.
+fn drive_experiment(
+    e: &Experiment,
+    workers: u64,
+    slots: usize,
+    reorder: impl Fn(&mut Vec<(WorkerId, Assignment)>),
+) -> (Vec<(Library, InfeasibleLibrary)>, Scheduler) {
+    let e = e.clone();
     let mut s = fresh(&e, 3);
     let now = Instant::now();
     let mut rounds = 0;
@@ -84,13 +95,20 @@ fn drive(
             s.accept(w, a.key, o, 0.0).unwrap();
         }
     }
-    (0..2).map(|i| s.run(i).unwrap().library.clone()).collect()
+    let libraries = (0..e.runs().len())
+        .map(|i| {
+            let r = s.run(i).unwrap();
+            (r.library.clone(), r.infeasible.clone())
+        })
+        .collect();
+    (libraries, s)
 }
 
 #[test]
 fn libraries_do_not_depend_on_workers_or_the_order_results_arrive() {
     let reference = drive(1, 1, |_| {});
-    assert!(reference.iter().all(|l| l.len() >= 6));
+    // Both libraries fill (the synthetic outcomes are a third feasible).
+    assert!(reference.iter().all(|(l, i)| l.len() >= 3 && i.len() >= 3));
     assert_eq!(drive(3, 4, |h| h.reverse()), reference);
     assert_eq!(
         drive(2, 7, |h| {
@@ -293,4 +311,36 @@ fn a_late_result_for_an_unneeded_initial_draw_is_not_taken_for_an_offspring() {
             Ok(Accepted::Stored)
         );
     }
+}
+
+#[test]
+fn the_initial_population_is_the_first_designs_that_pass_the_checks_before_simulating() {
+    // Feasible-infeasible search: the first `initial_population` designs that pass mass,
+    // height and start-pose checks are simulated and placed, whatever their trials show.
+    let e = experiment();
+    let (_, s) = drive_experiment(&e, 2, 3, |_| {});
+    for i in 0..2 {
+        let r = s.run(i).unwrap();
+        assert_eq!(r.initial_passed, e.run.initial_population);
+    }
+}
+
+#[test]
+fn under_the_papers_method_only_designs_that_meet_the_brief_are_placed() {
+    let mut e = experiment();
+    e.search.constraints = strider_common::experiment::ConstraintHandling::Reject;
+    let (libraries, s) = drive_experiment(&e, 2, 3, |_| {});
+    for (i, (feasible, infeasible)) in libraries.iter().enumerate() {
+        assert!(
+            infeasible.is_empty(),
+            "run {i}: nothing enters an infeasible library"
+        );
+        assert!(!feasible.is_empty());
+        let r = s.run(i).unwrap();
+        // The initial population was drawn until that many designs passed every check.
+        assert_eq!(r.initial_passed, e.run.initial_population);
+    }
+    // The same experiment with both libraries draws other parents: the method matters.
+    let (both, _) = drive_experiment(&experiment(), 2, 3, |_| {});
+    assert_ne!(both, libraries);
 }

@@ -69,7 +69,7 @@ fn status_and_a_generated_python_client_read_progress_and_elites() {
     let _worker = Process::spawn("worker", w);
 
     // While it runs.
-    coordinator.wait_for_line("generation 3", |l| l.contains("generation 3/12"), LONG);
+    coordinator.wait_for_line("generation 3", |l| l.contains("generation 3/20"), LONG);
     let running = status(&url, &secret);
     assert_eq!(running["experiment"], "service");
     assert_eq!(running["workers_connected"], 1);
@@ -90,7 +90,7 @@ fn status_and_a_generated_python_client_read_progress_and_elites() {
         .zip(exported["runs"].as_array().unwrap())
     {
         assert_eq!(r["finished"], true);
-        assert_eq!(r["generation"], 12);
+        assert_eq!(r["generation"], 20);
         let best = e["elites"]
             .as_array()
             .unwrap()

@@ -47,13 +47,13 @@ fn one_thread_and_two_threads_give_identical_libraries() {
     run_to_end(&two, "2");
     let (a, b) = (export(&one), export(&two));
     assert_same_library(&a, &b);
-    // Both runs finished all 8 generations and hold elites.
+    // Both runs finished all 12 generations and hold elites.
     for r in a["runs"].as_array().unwrap() {
         assert_eq!(r["finished"], true);
         assert_eq!(
             r["generations"].as_array().unwrap().len(),
-            9,
-            "generation 0 plus 8"
+            13,
+            "generation 0 plus 12"
         );
         assert!(!r["elites"].as_array().unwrap().is_empty());
     }
@@ -70,7 +70,7 @@ fn a_coordinator_killed_anywhere_resumes_to_the_same_library() {
     let db = dir.join("killed.db");
     // Kill it right after it reports each of these (the progress line is printed every
     // 50 ms), while it evaluates what follows.
-    for mark in ["initial", "generation 2/8", "generation 5/8"] {
+    for mark in ["initial", "generation 2/12", "generation 5/12"] {
         let mut child = Command::new(binary("strider-coordinator"))
             .args(["run", TINY, "--db", db.to_str().unwrap(), "--workers", "2"])
             .args(["--progress-every", "0.05"])
@@ -106,7 +106,7 @@ fn a_different_experiment_on_an_existing_database_is_refused() {
     let other = dir.join("other.toml");
     let text = std::fs::read_to_string(workspace_root().join(TINY))
         .unwrap()
-        .replace("generations = 8", "generations = 9");
+        .replace("generations = 12", "generations = 13");
     std::fs::write(&other, text).unwrap();
     let out = run(
         "strider-coordinator",
@@ -115,7 +115,7 @@ fn a_different_experiment_on_an_existing_database_is_refused() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("run.generations: 8 in the database, 9 given"),
+        err.contains("run.generations: 12 in the database, 13 given"),
         "{err}"
     );
     // Resuming a finished experiment with its own file changes nothing.

@@ -170,7 +170,7 @@ fn a_worker_cut_off_and_reconnected_changes_nothing() {
     };
     // w1 works alone for a while, so it holds leases when its link goes.
     let mut w1 = worker(1);
-    coordinator.wait_for_line("at generation 2", |l| l.contains("generation 2/12"), FINISH);
+    coordinator.wait_for_line("at generation 2", |l| l.contains("generation 2/20"), FINISH);
     net.link(1, false);
     let mut w2 = worker(2);
     coordinator.wait_for_line(
@@ -184,7 +184,7 @@ fn a_worker_cut_off_and_reconnected_changes_nothing() {
         |l| l.contains("leases expired"),
         START,
     );
-    coordinator.wait_for_line("at generation 5", |l| l.contains("generation 5/12"), FINISH);
+    coordinator.wait_for_line("at generation 5", |l| l.contains("generation 5/20"), FINISH);
     // The link comes back: w1's late results (if its stream survived) change nothing,
     // and it works again until the end.
     net.link(1, true);

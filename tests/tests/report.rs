@@ -95,8 +95,8 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     );
     assert_eq!(table5.lines().count(), 3, "{table5}");
     let gens = std::fs::read_to_string(pages.join("per_generation.csv")).unwrap();
-    // 2 schemes x 4 figures x generations 0..=3.
-    assert_eq!(gens.lines().count(), 1 + 2 * 4 * 4, "{gens}");
+    // 2 schemes x 4 figures x generations 0..=8.
+    assert_eq!(gens.lines().count(), 1 + 2 * 4 * 9, "{gens}");
     assert!(html.contains("The red ring marks MAX"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

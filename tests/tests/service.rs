@@ -133,11 +133,11 @@ fn killed_stopped_and_terminated_workers_change_nothing() {
         |l| l.contains("leases expired"),
         START,
     );
-    coordinator.wait_for_line("at generation 3", |l| l.contains("generation 3/12"), FINISH);
+    coordinator.wait_for_line("at generation 3", |l| l.contains("generation 3/20"), FINISH);
     killed.signal(libc::SIGKILL);
     // The stopped worker wakes up and sends its stale results: they change nothing.
     stopped.signal(libc::SIGCONT);
-    coordinator.wait_for_line("at generation 6", |l| l.contains("generation 6/12"), FINISH);
+    coordinator.wait_for_line("at generation 6", |l| l.contains("generation 6/20"), FINISH);
     // SIGTERM: the worker gives back or finishes what it holds and exits cleanly.
     terminated.signal(libc::SIGTERM);
     let status = terminated.wait_exit(Duration::from_secs(30));
@@ -169,7 +169,7 @@ fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
     for w in &ws {
         w.wait_for_line("retrying", |l| l.contains("retrying"), START);
     }
-    for mark in ["generation 2/12", "generation 7/12"] {
+    for mark in ["generation 2/20", "generation 7/20"] {
         let (coordinator, _) = serve(&dir, &db, port, "60");
         coordinator.wait_for_line(mark, |l| l.contains(mark), FINISH);
         coordinator.signal(libc::SIGKILL);

@@ -269,13 +269,14 @@ fn the_batch_script_runs_an_experiment_and_a_job_cut_short_is_resumed_by_the_nex
     assert_eq!(unfinished_runs(&whole.join("strider.db")), 0, "{output}");
     let expected = export(&whole.join("strider.db"));
 
-    // The same, with a one-minute limit and leasing stopped 56 s before it: cut short.
+    // The same, with a one-minute limit and leasing stopped 58 s before it (after 2 s of
+    // the run's 3): cut short.
     let cut = dir.join("cut");
     let cut_dir = cut.to_str().unwrap();
     let job = cluster.submit(
         "cut",
         &["--nodes=1", "--time=1"],
-        &[("STRIDER_RUN_DIR", cut_dir), ("STRIDER_STOP_MARGIN", "56")],
+        &[("STRIDER_RUN_DIR", cut_dir), ("STRIDER_STOP_MARGIN", "58")],
     );
     let output = cluster.finish(job, "cut");
     assert!(output.contains("leasing stops after"), "{output}");

@@ -40,10 +40,11 @@ fn eval_max_reports_its_walk_and_writes_a_trace() {
     assert_eq!(header.len(), 9 + 2 * 18);
     assert_eq!(header[9], "r0_q0");
     let rows: Vec<&str> = lines.collect();
-    assert_eq!(rows.len(), 150, "one row per control step");
+    // One row per control step: the 5 s trial and the second it must stay up after it.
+    assert_eq!(rows.len(), 180, "one row per control step");
     let last: Vec<f64> = rows[149].split(',').map(|v| v.parse().unwrap()).collect();
     assert!((last[0] - 5.0).abs() < 1e-9);
-    // The trace's final energy is the outcome's.
+    // The trace's energy at the end of the trial is the outcome's.
     let energy = o["stats"]["energy"].as_f64().unwrap();
     assert!(
         (last[8] - energy).abs() < 1e-3 * energy,
@@ -77,17 +78,38 @@ fn random_regenerates_a_candidate_from_its_seed() {
 fn survey_counts_add_up() {
     let out = run(
         "strider-worker",
-        &["survey", "--count", "200", "--json", "--threads", "2"],
+        &["survey", "--count", "300", "--json", "--threads", "2"],
     );
     let s: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
-    let n = |k: &str| s[k].as_u64().unwrap();
-    assert_eq!(n("total"), 200);
-    // Every simulated genome ends in exactly one of these.
+    let sum = |t: &serde_json::Value, k: &str| -> u64 {
+        t[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .sum()
+    };
+    let all = &s["all"];
+    assert_eq!(all["drawn"], 300);
+    // Every design ends in exactly one verdict, and each leg count's tallies add up to
+    // the whole.
+    assert_eq!(sum(all, "verdicts"), 300);
+    let groups = s["per_leg_count"].as_array().unwrap();
+    assert_eq!(groups.len(), 5);
+    let drawn: u64 = groups.iter().map(|g| g[1]["drawn"].as_u64().unwrap()).sum();
+    assert_eq!(drawn, 300);
+    // Every failed trial has a computed cause or is counted as having none.
+    let verdicts = all["verdicts"].as_array().unwrap();
+    let passed = verdicts.last().unwrap().as_u64().unwrap();
+    let rejected: u64 = verdicts[..3].iter().map(|v| v.as_u64().unwrap()).sum();
+    let failed_trials = 300 - rejected - passed;
     assert_eq!(
-        n("simulated"),
-        n("self_contact") + n("unstable") + n("no_progress") + n("speed_fails") + n("passed")
+        sum(all, "causes") + all["unexplained"].as_u64().unwrap(),
+        failed_trials
     );
-    assert!(n("mass_fails") + n("height_fails") >= 200 - n("simulated"));
+    assert!(
+        all["mass_fails"].as_u64().unwrap() + all["height_fails"].as_u64().unwrap()
+            >= rejected - verdicts[2].as_u64().unwrap()
+    );
 }
 
 #[test]

@@ -5,12 +5,12 @@
 
 use super::mann_whitney::{mann_whitney, MannWhitney};
 use super::rules::{mine_rules, Rules};
-use crate::library::{GenerationStats, Library};
+use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use std::fmt;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
 use strider_common::genome::ParamVector;
 use strider_common::params::{CONTROLLER_LEN, CONTROLLER_PARAMS};
-use strider_common::{BodyPlan, Features, Scheme};
+use strider_common::{BodyPlan, Features, Scheme, Shortfall};
 
 /// Share of each scheme's designs (pooled over repeats, by fitness) the rules and Table 5
 /// are drawn from.
@@ -24,6 +24,8 @@ pub struct RunResult<'a> {
     pub scheme: Scheme,
     /// Its library at the end.
     pub library: &'a Library,
+    /// Its infeasible library at the end (empty under the paper's method).
+    pub infeasible: &'a InfeasibleLibrary,
     /// Its last generation's statistics.
     pub last: GenerationStats,
 }
@@ -67,6 +69,64 @@ pub struct SchemeSummary {
     pub best_controller: [f64; CONTROLLER_LEN],
     /// Design rules from the top designs (None with fewer than 2 designs).
     pub rules: Option<Rules>,
+    /// Where the brief binds.
+    pub frontier: Frontier,
+}
+
+/// Where the brief binds, over a scheme's repeats (mean ± sd of cell counts).
+pub struct Frontier {
+    /// Cells holding a design that meets the whole brief.
+    pub feasible: MeanSd,
+    /// Cells holding only designs that miss it.
+    pub infeasible_only: MeanSd,
+    /// Of those, how many per constraint that binds (mean over repeats), nearest the brief
+    /// first.
+    pub binding: Vec<(Shortfall, f64)>,
+}
+
+/// The frontier of some runs.
+pub fn frontier<'r, 'a: 'r>(runs: impl IntoIterator<Item = &'r RunResult<'a>> + Clone) -> Frontier {
+    let n = runs.clone().into_iter().count().max(1) as f64;
+    let only = |r: &RunResult<'_>| {
+        r.infeasible
+            .elites()
+            .filter(|(c, _)| r.library.get(*c).is_none())
+            .map(|(_, e)| e.shortfall)
+            .collect::<Vec<_>>()
+    };
+    let feasible: Vec<f64> = runs
+        .clone()
+        .into_iter()
+        .map(|r| r.library.len() as f64)
+        .collect();
+    let infeasible_only: Vec<f64> = runs
+        .clone()
+        .into_iter()
+        .map(|r| only(r).len() as f64)
+        .collect();
+    let binding = Shortfall::ALL
+        .iter()
+        .map(|&s| {
+            let total: usize = runs
+                .clone()
+                .into_iter()
+                .map(|r| only(r).iter().filter(|x| **x == s).count())
+                .sum();
+            (s, total as f64 / n)
+        })
+        .collect();
+    let or_zero = |v: &[f64]| {
+        if v.is_empty() {
+            MeanSd { mean: 0.0, sd: 0.0 }
+        } else {
+            mean_sd(v)
+        }
+    };
+    Frontier {
+        feasible: or_zero(&feasible),
+        infeasible_only: or_zero(&infeasible_only),
+        binding,
+    }
 }
 
 /// A Mann-Whitney comparison of two schemes.
@@ -171,6 +231,7 @@ fn scheme_summary(scheme: Scheme, runs: &[&RunResult<'_>], payload: f64) -> Sche
         top_features,
         best_controller,
         rules: mine_rules(&designs, RULE_THRESHOLD).ok(),
+        frontier: frontier(runs.iter().copied()),
     }
 }
 
@@ -188,6 +249,26 @@ impl fmt::Display for Summary {
                 100.0 * s.coverage.mean,
                 100.0 * s.coverage.sd
             )?;
+        }
+        writeln!(
+            f,
+            "\nWhere the brief binds: cells with a design that meets it, cells with only designs\nthat miss it, and what those miss (mean over repeats)"
+        )?;
+        for s in &self.schemes {
+            let fr = &s.frontier;
+            write!(
+                f,
+                "  {:<7} feasible {:.1} ± {:.1}, infeasible only {:.1} ± {:.1}:",
+                s.scheme,
+                fr.feasible.mean,
+                fr.feasible.sd,
+                fr.infeasible_only.mean,
+                fr.infeasible_only.sd
+            )?;
+            for (shortfall, n) in &fr.binding {
+                write!(f, " {} {n:.1}", shortfall.name())?;
+            }
+            writeln!(f)?;
         }
         writeln!(f, "\nMann-Whitney U tests between schemes (two-sided)")?;
         if self.comparisons.is_empty() {

@@ -4,7 +4,7 @@
 //! SQLite commits this one (the two used to run one after the other, and the writer was
 //! the service's bottleneck).
 
-use super::{placement_name, Db, DbError, RunPosition, StepCommit, Write};
+use super::{placement_name, standing_figure, Db, DbError, RunPosition, StepCommit, Write};
 use crate::library::GenerationStats;
 use sqlx::Row;
 use std::collections::HashMap;
@@ -41,6 +41,7 @@ struct StepRows {
     run: i64,
     candidates: Vec<CandidateRow>,
     elites: Vec<EliteRow>,
+    infeasible: Vec<InfeasibleRow>,
     completed: Option<(u32, GenerationStats)>,
     position: RunPosition,
     initial_population_done: bool,
@@ -55,6 +56,17 @@ struct CandidateRow {
     fitness: Option<f64>,
     cell: Option<i64>,
     placement: &'static str,
+    shortfall: Option<&'static str>,
+    standing: Option<f64>,
+    infeasible_placement: Option<&'static str>,
+}
+
+/// An infeasible cell's new holder.
+struct InfeasibleRow {
+    cell: i64,
+    candidate: i64,
+    shortfall: &'static str,
+    standing: f64,
 }
 
 /// A cell's new holder (the genome is in its candidate row).
@@ -140,7 +152,24 @@ fn step_rows(step: &StepCommit) -> StepRows {
                     fitness,
                     cell,
                     placement: placement_name(c.placement),
+                    shortfall: c.outcome.shortfall().map(|s| s.name()),
+                    standing: c
+                        .outcome
+                        .shortfall()
+                        .and_then(|_| standing_figure(c.outcome.standing())),
+                    infeasible_placement: c.infeasible.map(|p| p.name()),
                 }
+            })
+            .collect(),
+        infeasible: step
+            .infeasible
+            .iter()
+            .map(|(cell, e)| InfeasibleRow {
+                cell: i64::from(cell.0),
+                candidate: e.candidate.0 as i64,
+                shortfall: e.shortfall.name(),
+                standing: standing_figure(e.standing)
+                    .expect("an infeasible elite was simulated and missed the brief"),
             })
             .collect(),
         elites: step
@@ -320,7 +349,7 @@ async fn write_step(
     let run = step.run;
     for chunk in step.candidates.chunks(ROWS_PER_STATEMENT) {
         let mut q = sqlx::QueryBuilder::new(
-            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement) ",
+            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement, shortfall, standing, infeasible_placement) ",
         );
         q.push_values(chunk, |mut b, c| {
             b.push_bind(run)
@@ -331,7 +360,10 @@ async fn write_step(
                 .push_bind(c.kind)
                 .push_bind(c.fitness)
                 .push_bind(c.cell)
-                .push_bind(c.placement);
+                .push_bind(c.placement)
+                .push_bind(c.shortfall)
+                .push_bind(c.standing)
+                .push_bind(c.infeasible_placement);
         });
         q.build().execute(&mut **tx).await?;
     }
@@ -347,8 +379,34 @@ async fn write_step(
         q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, fitness = excluded.fitness");
         q.build().execute(&mut **tx).await?;
     }
+    for chunk in step.infeasible.chunks(ROWS_PER_STATEMENT) {
+        let mut q = sqlx::QueryBuilder::new(
+            "INSERT INTO infeasible_cells (run_id, cell, candidate, shortfall, standing) ",
+        );
+        q.push_values(chunk, |mut b, e| {
+            b.push_bind(run)
+                .push_bind(e.cell)
+                .push_bind(e.candidate)
+                .push_bind(e.shortfall)
+                .push_bind(e.standing);
+        });
+        q.push(" ON CONFLICT (run_id, cell) DO UPDATE SET candidate = excluded.candidate, shortfall = excluded.shortfall, standing = excluded.standing");
+        q.build().execute(&mut **tx).await?;
+    }
     if let Some((generation, mut stats)) = step.completed {
         if generation == 0 {
+            for r in sqlx::query("SELECT infeasible_placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 AND infeasible_placement IS NOT NULL GROUP BY infeasible_placement")
+                .bind(run)
+                .fetch_all(&mut **tx)
+                .await?
+            {
+                let n = r.get::<i64, _>(1) as usize;
+                match r.get::<String, _>(0).as_str() {
+                    "new" => stats.infeasible_new = n,
+                    "improved" => stats.infeasible_improved = n,
+                    _ => {}
+                }
+            }
             for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
                 .bind(run)
                 .fetch_all(&mut **tx)
@@ -366,7 +424,7 @@ async fn write_step(
         }
         let evaluations =
             stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
-        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
             .bind(run)
             .bind(i64::from(generation))
             .bind(evaluations as i64)
@@ -381,6 +439,10 @@ async fn write_step(
             .bind(stats.discarded as i64)
             .bind(stats.rejected as i64)
             .bind(stats.invalid as i64)
+            .bind(stats.infeasible_elites as i64)
+            .bind(stats.infeasible_only as i64)
+            .bind(stats.infeasible_new as i64)
+            .bind(stats.infeasible_improved as i64)
             .execute(&mut **tx)
             .await?;
     }
@@ -430,6 +492,7 @@ mod tests {
             },
             candidates: Vec::new(),
             elites: Vec::new(),
+            infeasible: Vec::new(),
             completed: None,
         }))
     }

@@ -7,7 +7,10 @@ mod group;
 
 pub use group::PreparedGroup;
 
-use crate::library::{Elite, GenerationStats, Library, Placement};
+use crate::library::{
+    Elite, GenerationStats, InfeasibleElite, InfeasibleLibrary, InfeasiblePlacement, Library,
+    Placement,
+};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
@@ -16,7 +19,7 @@ use std::path::Path;
 use std::str::FromStr;
 use strider_common::experiment::RunSpec;
 use strider_common::rng::{CandidateNumber, RunSeed};
-use strider_common::{CellIndex, Experiment, Genome, Outcome, Scheme};
+use strider_common::{CellIndex, Experiment, Genome, Outcome, Scheme, Shortfall, Standing};
 
 /// A database problem, with what was being done.
 #[derive(Debug, thiserror::Error)]
@@ -47,14 +50,16 @@ pub struct RunRecord {
     pub spec: RunSpec,
     /// Last committed generation (0: the initial population, complete or not).
     pub generation: u32,
-    /// Valid candidates in the initial population so far.
+    /// Candidates of the initial population that count toward its size so far.
     pub initial_passed: u32,
     /// First candidate number not yet committed.
     pub next_candidate: u64,
     /// Whether the run has done all its generations.
     pub finished: bool,
-    /// Its library.
+    /// Its feasible library.
     pub library: Library,
+    /// Its infeasible library (empty under the paper's method).
+    pub infeasible: InfeasibleLibrary,
 }
 
 /// One evaluated candidate applied to its run's library, ready to store.
@@ -68,8 +73,10 @@ pub struct AppliedCandidate {
     pub genome: Genome,
     /// Its outcome.
     pub outcome: Outcome,
-    /// What it did to the library.
+    /// What it did to the feasible library.
     pub placement: Placement,
+    /// What it did to the infeasible library, if it was offered there.
+    pub infeasible: Option<InfeasiblePlacement>,
 }
 
 /// Where a run stands (the `runs` row).
@@ -86,6 +93,12 @@ pub struct RunPosition {
 }
 
 impl RunRecord {
+    /// `counts` completed with both libraries' figures.
+    pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
+        self.infeasible
+            .summary(self.library.summary(counts, cell_count), &self.library)
+    }
+
     /// Its position.
     pub fn position(&self) -> RunPosition {
         RunPosition {
@@ -109,6 +122,8 @@ pub struct StepCommit {
     pub candidates: Vec<AppliedCandidate>,
     /// The cells the step changed, with their new elites.
     pub elites: Vec<(CellIndex, Elite)>,
+    /// The infeasible library's cells the step changed, with their new elites.
+    pub infeasible: Vec<(CellIndex, InfeasibleElite)>,
     /// The generation the step completed, with its statistics (for the initial population
     /// the placement counts are filled in from all its stored candidates).
     pub completed: Option<(u32, GenerationStats)>,
@@ -235,10 +250,47 @@ pub struct StoredElite {
     pub outcome: Outcome,
 }
 
+/// An infeasible elite as stored, with the outcome that placed it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredInfeasible {
+    /// Its cell.
+    pub cell: CellIndex,
+    /// The candidate.
+    pub candidate: CandidateNumber,
+    /// What keeps it from the brief.
+    pub shortfall: Shortfall,
+    /// Its figure in the order of outcomes (speed, or when its trial ended).
+    pub standing: f64,
+    /// Its genome, with the controller it was evaluated with.
+    pub genome: Genome,
+    /// Its outcome.
+    pub outcome: Outcome,
+}
+
 /// The database.
 #[derive(Clone)]
 pub struct Db {
     pool: SqlitePool,
+}
+
+/// A shortfall's place in the order of outcomes, from its stored figure: speed for trials
+/// that ran to the end, the time it ended for the others.
+pub fn standing_of(shortfall: Shortfall, figure: f64) -> Standing {
+    match shortfall {
+        Shortfall::Speed | Shortfall::Backward => Standing::TooSlow { speed: figure },
+        Shortfall::Fell | Shortfall::SelfContact | Shortfall::Unstable => {
+            Standing::EndedEarly { at_time: figure }
+        }
+    }
+}
+
+/// The figure stored beside a shortfall (the inverse of [`standing_of`]).
+pub fn standing_figure(s: Standing) -> Option<f64> {
+    match s {
+        Standing::TooSlow { speed } => Some(speed),
+        Standing::EndedEarly { at_time } => Some(at_time),
+        Standing::Feasible { .. } | Standing::NotSimulated => None,
+    }
 }
 
 fn placement_name(p: Placement) -> &'static str {
@@ -346,8 +398,29 @@ impl Db {
                     Elite { candidate: CandidateNumber(e.get::<i64, _>(1) as u64), genome, fitness: e.get(2) },
                 );
             }
+            let mut infeasible = InfeasibleLibrary::default();
+            for e in sqlx::query("SELECT cell, candidate, shortfall, standing, genome FROM infeasible_elites WHERE run_id = ? ORDER BY cell")
+                .bind(id)
+                .fetch_all(&self.pool)
+                .await?
+            {
+                let corrupt = |what: String| DbError::Corrupt(format!("infeasible elite of run {id}: {what}"));
+                let genome: String = e.get(4);
+                let shortfall: String = e.get(2);
+                let shortfall = Shortfall::named(&shortfall).ok_or_else(|| corrupt(format!("unknown shortfall `{shortfall}`")))?;
+                infeasible.restore(
+                    CellIndex(e.get::<i64, _>(0) as u32),
+                    InfeasibleElite {
+                        candidate: CandidateNumber(e.get::<i64, _>(1) as u64),
+                        genome: serde_json::from_str(&genome).map_err(|x| corrupt(x.to_string()))?,
+                        standing: standing_of(shortfall, e.get(3)),
+                        shortfall,
+                    },
+                );
+            }
             out.push(RunRecord {
                 id,
+                infeasible,
                 spec: RunSpec {
                     scheme: Scheme::from_str(&scheme).map_err(DbError::Corrupt)?,
                     repeat: r.get::<i64, _>(2) as u32,
@@ -434,12 +507,41 @@ impl Db {
             .collect()
     }
 
+    /// A run's infeasible library in cell order, with each elite's outcome.
+    pub async fn list_infeasible(&self, run_id: i64) -> Result<Vec<StoredInfeasible>, DbError> {
+        let rows = sqlx::query(
+            "SELECT e.cell, e.candidate, e.shortfall, e.standing, e.genome, c.outcome FROM infeasible_elites e \
+             JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
+             WHERE e.run_id = ? ORDER BY e.cell",
+        )
+        .bind(run_id)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let corrupt = |what: String| DbError::Corrupt(format!("infeasible elite: {what}"));
+                let shortfall: String = r.get(2);
+                let genome: String = r.get(4);
+                let outcome: String = r.get(5);
+                Ok(StoredInfeasible {
+                    cell: CellIndex(r.get::<i64, _>(0) as u32),
+                    candidate: CandidateNumber(r.get::<i64, _>(1) as u64),
+                    shortfall: Shortfall::named(&shortfall)
+                        .ok_or_else(|| corrupt(format!("unknown shortfall `{shortfall}`")))?,
+                    standing: r.get(3),
+                    genome: serde_json::from_str(&genome).map_err(|e| corrupt(e.to_string()))?,
+                    outcome: serde_json::from_str(&outcome).map_err(|e| corrupt(e.to_string()))?,
+                })
+            })
+            .collect()
+    }
+
     /// Per-generation statistics of a run, in order.
     pub async fn generations(
         &self,
         run_id: i64,
     ) -> Result<Vec<(u32, u64, GenerationStats)>, DbError> {
-        let rows = sqlx::query("SELECT generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid FROM generations WHERE run_id = ? ORDER BY generation")
+        let rows = sqlx::query("SELECT generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved FROM generations WHERE run_id = ? ORDER BY generation")
             .bind(run_id)
             .fetch_all(&self.pool)
             .await?;
@@ -462,6 +564,10 @@ impl Db {
                         discarded: n(10),
                         rejected: n(11),
                         invalid: n(12),
+                        infeasible_elites: n(13),
+                        infeasible_only: n(14),
+                        infeasible_new: n(15),
+                        infeasible_improved: n(16),
                     },
                 )
             })

@@ -3,10 +3,10 @@
 //! reference design marked) and the fifteen best-per-pair marginal maps.
 
 use super::svg::{colour, colour_bar, document, text, vertical_text, EMPTY};
-use crate::library::Library;
+use crate::library::{InfeasibleLibrary, Library};
 use std::fmt::Write;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
-use strider_common::{CellIndex, FeatureGrid};
+use strider_common::{CellIndex, FeatureGrid, Shortfall, Standing};
 
 /// A fixed fitness scale for every map of a report, so colours compare across pictures.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,23 +66,113 @@ pub fn stacking_svg(
     marked: Option<(CellIndex, &str)>,
     title: &str,
 ) -> String {
+    let mut s = String::new();
+    let painted = library
+        .elites()
+        .map(|(cell, e)| (cell, colour(scale.t(e.fitness))));
+    let side = stack(&mut s, grid, painted, marked, title);
+    colour_bar(&mut s, LEFT, TOP + side + 50.0, 300.0, scale.lo, scale.hi);
+    document(LEFT + side + 30.0, TOP + side + 100.0, &s)
+}
+
+/// A colour per constraint that binds, nearest the brief first (and the feasible colour).
+pub const FEASIBLE_COLOUR: &str = "#1b7837";
+fn shortfall_colour(s: Shortfall) -> &'static str {
+    match s {
+        Shortfall::Speed => "#f1b82d",
+        Shortfall::Backward => "#a6611a",
+        Shortfall::Fell => "#d7301f",
+        Shortfall::SelfContact => "#7b3294",
+        Shortfall::Unstable => "#252525",
+    }
+}
+
+/// What a cell of the frontier holds: a feasible design, else the nearest infeasible one's
+/// shortfall.
+fn frontier_colour(
+    library: &Library,
+    infeasible: &InfeasibleLibrary,
+    cell: CellIndex,
+) -> Option<&'static str> {
+    if library.get(cell).is_some() {
+        Some(FEASIBLE_COLOUR)
+    } else {
+        infeasible.get(cell).map(|e| shortfall_colour(e.shortfall))
+    }
+}
+
+fn frontier_legend(s: &mut String, x: f64, y: f64) {
+    let items = std::iter::once(("meets the brief", FEASIBLE_COLOUR)).chain(
+        Shortfall::ALL.iter().map(|&sh| {
+            (
+                match sh {
+                    Shortfall::Speed => "too slow",
+                    Shortfall::Backward => "backward",
+                    Shortfall::Fell => "fell",
+                    Shortfall::SelfContact => "self-contact",
+                    Shortfall::Unstable => "unstable",
+                },
+                shortfall_colour(sh),
+            )
+        }),
+    );
+    for (k, (label, fill)) in items.enumerate() {
+        let x = x + k as f64 * 110.0;
+        let _ = writeln!(
+            s,
+            r##"<rect x="{x:.1}" y="{:.1}" width="12" height="12" fill="{fill}"/>"##,
+            y - 10.0
+        );
+        text(s, x + 16.0, y, 11.0, "start", label);
+    }
+}
+
+/// The brief's frontier of one run by dimensional stacking: each cell coloured by whether
+/// it holds a design that meets the brief, or else by what its nearest design misses.
+pub fn frontier_svg(
+    grid: &FeatureGrid,
+    library: &Library,
+    infeasible: &InfeasibleLibrary,
+    marked: Option<(CellIndex, &str)>,
+    title: &str,
+) -> String {
+    let mut s = String::new();
+    let cells: std::collections::BTreeSet<CellIndex> = library
+        .elites()
+        .map(|(c, _)| c)
+        .chain(infeasible.elites().map(|(c, _)| c))
+        .collect();
+    let painted = cells
+        .into_iter()
+        .filter_map(|c| frontier_colour(library, infeasible, c).map(|f| (c, f.to_string())));
+    let side = stack(&mut s, grid, painted, marked, title);
+    frontier_legend(&mut s, LEFT, TOP + side + 60.0);
+    document(LEFT + side + 30.0, TOP + side + 90.0, &s)
+}
+
+/// Draws the stacked grid with `painted` cells into `s`; returns its side, px.
+fn stack(
+    s: &mut String,
+    grid: &FeatureGrid,
+    painted: impl Iterator<Item = (CellIndex, String)>,
+    marked: Option<(CellIndex, &str)>,
+    title: &str,
+) -> f64 {
     let b = grid.bins;
     let n = b * b * b;
     let side = f64::from(n) * CELL;
-    let mut s = String::new();
-    text(&mut s, LEFT, 22.0, 14.0, "start", title);
+    text(s, LEFT, 22.0, 14.0, "start", title);
     let _ = writeln!(
         s,
         r#"<rect x="{LEFT}" y="{TOP}" width="{side}" height="{side}" fill="{EMPTY}"/>"#
     );
-    for (cell, e) in library.elites() {
+    for (cell, fill) in painted {
         let (x, y) = stacked_position(grid, cell);
         let _ = writeln!(
             s,
-            r#"<rect x="{:.1}" y="{:.1}" width="{CELL}" height="{CELL}" fill="{}"/>"#,
+            r#"<rect x="{:.1}" y="{:.1}" width="{CELL}" height="{CELL}" fill="{fill}"/>"#,
             LEFT + f64::from(x) * CELL,
             TOP + side - f64::from(y + 1) * CELL,
-            colour(scale.t(e.fitness))
         );
     }
     // Lines between blocks: thin every b cells, heavy every b^2.
@@ -110,7 +200,7 @@ pub fn stacking_svg(
     let block = f64::from(b * b) * CELL;
     for k in 0..b {
         text(
-            &mut s,
+            s,
             LEFT + (f64::from(k) + 0.5) * block,
             TOP + side + 16.0,
             11.0,
@@ -118,7 +208,7 @@ pub fn stacking_svg(
             &bin_label(grid, 0, k),
         );
         vertical_text(
-            &mut s,
+            s,
             LEFT - 12.0,
             TOP + side - (f64::from(k) + 0.5) * block,
             11.0,
@@ -126,7 +216,7 @@ pub fn stacking_svg(
         );
     }
     text(
-        &mut s,
+        s,
         LEFT + side / 2.0,
         TOP + side + 34.0,
         12.0,
@@ -137,7 +227,7 @@ pub fn stacking_svg(
         ),
     );
     vertical_text(
-        &mut s,
+        s,
         LEFT - 34.0,
         TOP + side / 2.0,
         12.0,
@@ -156,10 +246,9 @@ pub fn stacking_svg(
             s,
             r#"<circle cx="{cx:.1}" cy="{cy:.1}" r="7" fill="none" stroke="red" stroke-width="2"/>"#
         );
-        text(&mut s, cx + 10.0, cy - 8.0, 12.0, "start", name);
+        text(s, cx + 10.0, cy - 8.0, 12.0, "start", name);
     }
-    colour_bar(&mut s, LEFT, TOP + side + 50.0, 300.0, scale.lo, scale.hi);
-    document(LEFT + side + 30.0, TOP + side + 100.0, &s)
+    side
 }
 
 /// Best fitness per pair of bins of features `i` and `j` (None: no elite there),
@@ -185,27 +274,91 @@ pub fn marginal(
 /// The fifteen marginal maps (every pair of features, best fitness per pair of bins)
 /// in one picture.
 pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title: &str) -> String {
+    let mut s = String::new();
+    let height = pair_maps(&mut s, grid, title, |i, j| {
+        marginal(grid, library, i, j)
+            .into_iter()
+            .map(|row| {
+                row.into_iter()
+                    .map(|v| v.map(|f| colour(scale.t(f))))
+                    .collect()
+            })
+            .collect()
+    });
+    colour_bar(&mut s, 50.0, height, 300.0, scale.lo, scale.hi);
+    document(
+        50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
+        height + 40.0,
+        &s,
+    )
+}
+
+/// The frontier per pair of features: a pair of bins is green when some cell in it holds a
+/// design that meets the brief, else coloured by what the nearest design there misses.
+pub fn frontier_marginals_svg(
+    grid: &FeatureGrid,
+    library: &Library,
+    infeasible: &InfeasibleLibrary,
+    title: &str,
+) -> String {
+    let b = grid.bins as usize;
+    let mut s = String::new();
+    let height = pair_maps(&mut s, grid, title, |i, j| {
+        let mut best: Vec<Vec<Option<Standing>>> = vec![vec![None; b]; b];
+        let mut paint: Vec<Vec<Option<String>>> = vec![vec![None; b]; b];
+        for (cell, _) in library.elites() {
+            let d = grid.bins_of_cell(cell).0;
+            paint[d[i] as usize][d[j] as usize] = Some(FEASIBLE_COLOUR.into());
+        }
+        for (cell, e) in infeasible.elites() {
+            let d = grid.bins_of_cell(cell).0;
+            let (x, y) = (d[i] as usize, d[j] as usize);
+            if paint[x][y].as_deref() == Some(FEASIBLE_COLOUR) {
+                continue;
+            }
+            if best[x][y].is_none_or(|old| e.standing.beats(&old)) {
+                best[x][y] = Some(e.standing);
+                paint[x][y] = Some(shortfall_colour(e.shortfall).into());
+            }
+        }
+        paint
+    });
+    frontier_legend(&mut s, 50.0, height);
+    document(
+        50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
+        height + 30.0,
+        &s,
+    )
+}
+
+/// Draws the fifteen pair maps into `s`, each bin pair filled by `fill(i, j)[bin_i][bin_j]`
+/// (grey when None); returns the height used, px.
+fn pair_maps(
+    s: &mut String,
+    grid: &FeatureGrid,
+    title: &str,
+    fill: impl Fn(usize, usize) -> Vec<Vec<Option<String>>>,
+) -> f64 {
     let b = f64::from(grid.bins);
     let cell = 18.0;
     let map = b * cell;
     let (gap_x, gap_y) = (map + 70.0, map + 70.0);
     let cols = 5;
-    let mut s = String::new();
-    text(&mut s, 20.0, 22.0, 14.0, "start", title);
+    text(s, 20.0, 22.0, 14.0, "start", title);
     let pairs = (0..FEATURE_COUNT).flat_map(|i| (i + 1..FEATURE_COUNT).map(move |j| (i, j)));
     for (k, (i, j)) in pairs.enumerate() {
         let (ox, oy) = (
             50.0 + (k % cols) as f64 * gap_x,
             50.0 + (k / cols) as f64 * gap_y,
         );
-        for (bi, row) in marginal(grid, library, i, j).iter().enumerate() {
+        for (bi, row) in fill(i, j).iter().enumerate() {
             for (bj, v) in row.iter().enumerate() {
-                let fill = v.map_or(EMPTY.to_string(), |f| colour(scale.t(f)));
                 let _ = writeln!(
                     s,
-                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{fill}" stroke="#fff" stroke-width="0.5"/>"##,
+                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{}" stroke="#fff" stroke-width="0.5"/>"##,
                     ox + bi as f64 * cell,
-                    oy + map - (bj as f64 + 1.0) * cell
+                    oy + map - (bj as f64 + 1.0) * cell,
+                    v.as_deref().unwrap_or(EMPTY)
                 );
             }
         }
@@ -214,7 +367,7 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
             r##"<rect x="{ox:.1}" y="{oy:.1}" width="{map}" height="{map}" fill="none" stroke="#333"/>"##
         );
         text(
-            &mut s,
+            s,
             ox + map / 2.0,
             oy + map + 14.0,
             10.0,
@@ -222,16 +375,14 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
             &format!("d{} {} →", i + 1, FEATURE_NAMES[i]),
         );
         vertical_text(
-            &mut s,
+            s,
             ox - 8.0,
             oy + map / 2.0,
             10.0,
             &format!("d{} {} →", j + 1, FEATURE_NAMES[j]),
         );
     }
-    let height = 50.0 + 3.0 * gap_y + 10.0;
-    colour_bar(&mut s, 50.0, height, 300.0, scale.lo, scale.hi);
-    document(50.0 + cols as f64 * gap_x, height + 40.0, &s)
+    50.0 + 3.0 * gap_y + 10.0
 }
 
 #[cfg(test)]

@@ -11,14 +11,14 @@ pub mod svg;
 use crate::analysis::mann_whitney::MannWhitney;
 use crate::analysis::rules::Rule;
 use crate::analysis::summary::{mean_sd, summarise, RunResult, Summary};
-use crate::library::{GenerationStats, Library};
+use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use charts::{line_chart, Series, SCHEME_COLOURS};
-use maps::{marginals_svg, stacking_svg, Scale};
+use maps::{frontier_marginals_svg, frontier_svg, marginals_svg, stacking_svg, Scale};
 use std::fmt::Write;
 use strider_common::drawing::design_svg;
 use strider_common::features::FEATURE_NAMES;
 use strider_common::params::CONTROLLER_PARAMS;
-use strider_common::{BodyPlan, Experiment, Features, Genome, Scheme, StartPose};
+use strider_common::{BodyPlan, CellIndex, Experiment, Features, Genome, Scheme, StartPose};
 use svg::escape;
 
 /// One run as the report reads it.
@@ -31,6 +31,8 @@ pub struct RunData {
     pub repeat: u32,
     /// Its library now.
     pub library: Library,
+    /// Its infeasible library now (empty under the paper's method).
+    pub infeasible: InfeasibleLibrary,
     /// Every committed generation's statistics, in order.
     pub generations: Vec<(u32, GenerationStats)>,
 }
@@ -64,11 +66,12 @@ pub struct Report {
 }
 
 /// The section headings of the page, in order (tests check each is there).
-pub const SECTIONS: [&str; 7] = [
+pub const SECTIONS: [&str; 8] = [
     "Progress per generation",
     "Comparing schemes",
     "The library of one run",
     "Best designs per pair of features",
+    "Where the brief binds",
     "What the best designs look like",
     "Design rules",
     "Drawings of chosen designs",
@@ -266,6 +269,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
             r.generations.last().map(|(_, last)| RunResult {
                 scheme: r.scheme,
                 library: &r.library,
+                infeasible: &r.infeasible,
                 last: *last,
             })
         })
@@ -373,8 +377,12 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         page.push_str("<p>No run has a library yet.</p>\n");
     }
 
-    // 5. Table 5 and the controllers.
+    // 5. The brief's frontier.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[4]);
+    frontier_section(&mut page, &mut pictures, &mut tables, inp, &summary, chosen);
+
+    // 6. Table 5 and the controllers.
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[5]);
     let mut header = vec!["scheme".to_string(), "designs".to_string()];
     header.extend(
         FEATURE_NAMES
@@ -414,7 +422,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     add_table(&mut page, &mut tables, "best_controllers", &header, &rows);
 
     // 6. Rules.
-    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[5]);
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);
     page.push_str("<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others; <em>d1</em> to <em>d6</em> are the features in the order above. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped.</p>\n");
     let header: Vec<String> = ["scheme", "kept", "rule", "spread", "mean error %"]
         .map(String::from)
@@ -441,7 +449,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     add_table(&mut page, &mut tables, "design_rules", &header, &rows);
 
     // 7. Drawings.
-    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[7]);
     page.push_str("<p>Side, front and top views of each design at its start pose, to scale (the bar is 1 m); right legs blue, left legs orange.</p>\n");
     if let Some(run) = chosen {
         for (k, (label, cell, el)) in chosen_designs(&e.features, &run.library)
@@ -475,6 +483,126 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         pictures,
         tables,
     }
+}
+
+/// How many infeasible designs nearest the brief the report lists.
+const NEAREST: usize = 10;
+
+/// The brief's frontier: cells per scheme that meet it or only miss it and what binds, the
+/// chosen run's frontier maps, and the infeasible designs nearest the brief.
+fn frontier_section(
+    page: &mut String,
+    pictures: &mut Vec<Picture>,
+    tables: &mut Vec<Table>,
+    inp: &Inputs<'_>,
+    summary: &Summary,
+    chosen: Option<&RunData>,
+) {
+    let e = inp.experiment;
+    page.push_str("<p>Cells holding a design that meets the whole brief (feasible), cells holding only designs that miss it (from the infeasible library, kept by feasible-infeasible search), and, for those, the constraint that binds: too slow, backward, fell, self-contact or unstable (mean over repeats).</p>\n");
+    let mut header: Vec<String> = ["scheme", "feasible cells", "infeasible-only cells"]
+        .map(String::from)
+        .to_vec();
+    header.extend(
+        strider_common::Shortfall::ALL
+            .iter()
+            .map(|s| format!("binding: {}", s.name())),
+    );
+    let rows: Vec<Vec<String>> = summary
+        .schemes
+        .iter()
+        .map(|s| {
+            let f = &s.frontier;
+            let mut r = vec![
+                s.scheme.name().into(),
+                format!("{:.1}", f.feasible.mean),
+                format!("{:.1}", f.infeasible_only.mean),
+            ];
+            r.extend(f.binding.iter().map(|(_, n)| format!("{n:.1}")));
+            r
+        })
+        .collect();
+    add_table(page, tables, "frontier_by_scheme", &header, &rows);
+    if let Some(run) = chosen {
+        let title = format!(
+            "Run {} ({}, repeat {}): {} cells meet the brief, {} hold only designs that miss it",
+            run.id,
+            run.scheme.name(),
+            run.repeat,
+            run.library.len(),
+            run.infeasible
+                .elites()
+                .filter(|(c, _)| run.library.get(*c).is_none())
+                .count()
+        );
+        let map = Picture {
+            name: "frontier_map".into(),
+            caption: format!("{title}. The library map of the section above, each cell coloured green when it holds a design that meets the brief, else by what its nearest design misses (grey: nothing simulated there)."),
+            svg: frontier_svg(&e.features, &run.library, &run.infeasible, None, &title),
+        };
+        push_picture(page, &map);
+        pictures.push(map);
+        let pairs = Picture {
+            name: "frontier_pair_maps".into(),
+            caption: "Per pair of features: green where some design meets the brief, else coloured by what the nearest design there misses.".into(),
+            svg: frontier_marginals_svg(&e.features, &run.library, &run.infeasible, &format!("Run {}: where the brief binds, per pair of features", run.id)),
+        };
+        push_picture(page, &pairs);
+        pictures.push(pairs);
+    }
+    // The infeasible designs nearest the brief, over every run.
+    let mut nearest: Vec<(&RunData, CellIndex, &crate::library::InfeasibleElite)> = inp
+        .runs
+        .iter()
+        .flat_map(|r| r.infeasible.elites().map(move |(c, el)| (r, c, el)))
+        .collect();
+    nearest.sort_by_key(|n| std::cmp::Reverse(n.2.standing));
+    nearest.truncate(NEAREST);
+    let header: Vec<String> = [
+        "run",
+        "scheme",
+        "cell",
+        "misses",
+        "speed m/s",
+        "ended at s",
+        "legs per side",
+        "mass kg",
+        "height m",
+    ]
+    .map(String::from)
+    .to_vec();
+    let rows: Vec<Vec<String>> = nearest
+        .iter()
+        .map(|(r, cell, el)| {
+            let plan = BodyPlan::new(&el.genome.morphology, e.brief.payload);
+            let pose = StartPose::new(&plan, &el.genome.controller);
+            let (speed, ended) = match el.standing {
+                strider_common::Standing::TooSlow { speed } => {
+                    (format!("{speed:.3}"), String::new())
+                }
+                strider_common::Standing::EndedEarly { at_time } => {
+                    (String::new(), format!("{at_time:.2}"))
+                }
+                _ => (String::new(), String::new()),
+            };
+            vec![
+                r.id.to_string(),
+                r.scheme.name().into(),
+                cell.0.to_string(),
+                el.shortfall.name().into(),
+                speed,
+                ended,
+                plan.legs_per_side().to_string(),
+                format!("{:.1}", plan.mass_without_payload()),
+                format!("{:.2}", pose.height),
+            ]
+        })
+        .collect();
+    page.push_str("<p>The infeasible designs nearest the brief (mass without payload; start-pose height).</p>\n");
+    if rows.is_empty() {
+        page.push_str("<p>No infeasible library: this experiment rejects designs that miss the brief (the paper's method).</p>\n");
+    }
+    add_table(page, tables, "nearest_infeasible", &header, &rows);
 }
 
 /// The best design of the library, then the fittest of each other legs-per-side bin

@@ -57,6 +57,9 @@ pub fn progress(shared: &Shared) -> v1::Progress {
                 mean_fitness: r.library.mean_fitness,
                 qd_score: r.library.qd_score,
                 finished: r.finished,
+                feasible_elites: r.library.elites as u32,
+                infeasible_elites: r.library.infeasible_elites as u32,
+                infeasible_only: r.library.infeasible_only as u32,
             })
             .collect(),
         workers_connected: shared.workers.load(Ordering::Relaxed),

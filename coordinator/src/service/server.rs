@@ -323,8 +323,14 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
         }
     }));
     let mut finished = shared.finished.subscribe();
+    let s = shared.clone();
     tasks.push(tokio::spawn(async move {
         if finished.wait_for(|f| *f).await.is_ok() {
+            // Said once the last results are in the database, so that whoever reads it on
+            // this line (a script, a test, `--keep-serving` clients) reads everything.
+            let (done_tx, done_rx) = oneshot::channel();
+            let _ = s.writer.send(WriterMessage::Flush(done_tx));
+            let _ = done_rx.await;
             tracing::info!("every run is finished");
         }
     }));

@@ -1,7 +1,9 @@
 //! One trial (spec section 3): the robot walks for the trial's duration under its
 //! controller; the energy, distance and cost of transport are measured, and the trial stops
 //! early on a self-contact, a fall (tilt, sinking, a part other than a lower leg on the
-//! ground), a non-finite value or a blow-up.
+//! ground), a non-finite value or a blow-up. After the trial the robot must stay up a
+//! while longer (`upright_after_seconds`), its gait going on; distance and energy count
+//! over the trial only.
 //!
 //! Torque accounting. Rapier integrates a joint spring by backward Euler: over a step the
 //! joint receives `tau = k (rest - q_n) - (k dt + d) v_{n+1}` (with `q_n` the angle before
@@ -117,6 +119,12 @@ pub fn run_trial_with<O: Observer>(
     let mut rw = RobotWorld::new(plan, start, dt);
     let substeps = settings.physics_substeps as usize;
     let steps = settings.control_steps() as usize * substeps;
+    // Past the trial the robot must stay up a while, its gait going on: one that falls
+    // then was falling at the end, and would otherwise be credited with the distance it
+    // fell forward (seen in the best designs of a search). Distance and energy stop at
+    // `steps`.
+    let after = (limits.upright_after_seconds * settings.control_hz).round() as usize * substeps;
+    let mut at_end: Option<(Vector3<f64>, f64)> = None;
     let total_mass = plan.total_mass();
     let com_start = centre_of_mass(&rw);
     let falls = FallCheck::new(limits, start);
@@ -128,7 +136,10 @@ pub fn run_trial_with<O: Observer>(
     let mut torques = vec![0.0; n];
     let mut energy = 0.0;
 
-    for step in 0..steps {
+    for step in 0..steps + after {
+        if step == steps {
+            at_end = Some((centre_of_mass(&rw), energy));
+        }
         let t = step as f64 * dt;
         if step % substeps == 0 {
             let control_time = (step / substeps) as f64 / settings.control_hz;
@@ -192,7 +203,8 @@ pub fn run_trial_with<O: Observer>(
                 com: centre_of_mass(&rw),
             });
         }
-        if let Some(reason) = contacts(&rw, limits.only_feet_on_ground, plan) {
+        // After the trial only falls count: a self-contact then changes no figure.
+        if let Some(reason) = contacts(&rw, limits.only_feet_on_ground, step < steps, plan) {
             return stopped(reason, time);
         }
         if let Some(fall) = falls.check(&rw) {
@@ -200,7 +212,7 @@ pub fn run_trial_with<O: Observer>(
         }
     }
 
-    let com_end = centre_of_mass(&rw);
+    let (com_end, energy) = at_end.unwrap_or_else(|| (centre_of_mass(&rw), energy));
     if !com_end.iter().all(|c| c.is_finite()) {
         return stopped(
             InvalidReason::NonFinite {
@@ -305,17 +317,22 @@ impl FallCheck {
     }
 }
 
-/// Contacts that end the trial, from the pairs in real contact (not merely predicted): two
-/// robot parts not joined by a hinge (hinged pairs have contacts off), else, when
-/// `feet_only`, a part other than a lower leg on the ground.
-fn contacts(rw: &RobotWorld, feet_only: bool, plan: &BodyPlan) -> Option<InvalidReason> {
+/// Contacts that end the trial, from the pairs in real contact (not merely predicted): when
+/// `self_contacts`, two robot parts not joined by a hinge (hinged pairs have contacts off),
+/// else, when `feet_only`, a part other than a lower leg on the ground.
+fn contacts(
+    rw: &RobotWorld,
+    feet_only: bool,
+    self_contacts: bool,
+    plan: &BodyPlan,
+) -> Option<InvalidReason> {
     let colliders = &rw.world.colliders;
     let mut dragged = None;
     for pair in rw.world.narrow_phase.contact_pairs() {
         let a = colliders[pair.collider1].user_data;
         let b = colliders[pair.collider2].user_data;
         let on_ground = a == GROUND_TAG || b == GROUND_TAG;
-        if on_ground && (!feet_only || dragged.is_some()) {
+        if (on_ground && (!feet_only || dragged.is_some())) || (!on_ground && !self_contacts) {
             continue;
         }
         let touching = pair
