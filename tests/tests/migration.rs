@@ -1,5 +1,5 @@
 //! A database made by the build before feasible-infeasible search (schema 0002, a run of
-//! the paper's method cut short at generation 3 of 6: `tests/fixtures/pre-0003.sql`, dumped
+//! the paper's method killed at generation 2 of 6: `tests/fixtures/pre-0003.sql`, dumped
 //! with `sqlite3 .dump`) opens with today's build: migration 0003 fills in every stored
 //! candidate's shortfall, names the method the experiment was started with, and the run
 //! resumes with it to the end.
@@ -33,7 +33,7 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     assert!(loaded.success());
     assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "2");
     let before = sql(&db, "SELECT COUNT(*) FROM candidates");
-    assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "3|0");
+    assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "2|0");
 
     // Resumed without the experiment file: from the database alone.
     let out = run_ok("strider-coordinator", &["run", "--db", db.to_str().unwrap()]);
