@@ -362,7 +362,7 @@ async fn open_or_create(
             path.display()
         );
     }
-    let db = Db::open(path, true).await?;
+    let db = Db::open_exclusive(path, true).await?;
     let experiment = match db.experiment().await? {
         Some((stored, build)) => {
             if let Some(given) = &given {

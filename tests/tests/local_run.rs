@@ -240,3 +240,55 @@ fn analyse_prints_every_section() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_papers_method_places_only_designs_that_meet_the_brief() {
+    if !strider_tests::installed("sqlite3") {
+        return strider_tests::skip_without("sqlite3 (apt-get install sqlite3)");
+    }
+    let dir = temp_dir("reject");
+    let file = dir.join("reject.toml");
+    let text = std::fs::read_to_string(workspace_root().join(TINY)).unwrap();
+    std::fs::write(
+        &file,
+        format!("{text}\n[search]\nconstraints = \"reject\"\n")
+            .replace("repeats = 2", "repeats = 1"),
+    )
+    .unwrap();
+    let db = dir.join("reject.db");
+    run_ok(
+        "strider-coordinator",
+        &["run", file.to_str().unwrap(), "--db", db.to_str().unwrap()],
+    );
+    let sql = |q: &str| {
+        let out = Command::new("sqlite3").arg(&db).arg(q).output().unwrap();
+        String::from_utf8(out.stdout).unwrap().trim().to_string()
+    };
+    // The initial population was drawn until 12 designs met the brief: every draw before
+    // the twelfth valid one is stored, and only valid designs hold cells.
+    let (valid, drawn): (u64, u64) = {
+        let v = sql("SELECT SUM(kind = 'valid'), COUNT(*) FROM candidates WHERE generation = 0");
+        let (a, b) = v.split_once('|').unwrap();
+        (a.parse().unwrap(), b.parse().unwrap())
+    };
+    assert_eq!(valid, 12);
+    assert!(
+        drawn > 12,
+        "random designs rarely meet even a lowered brief"
+    );
+    assert_eq!(
+        sql("SELECT MAX(number) FROM candidates WHERE generation = 0"),
+        sql("SELECT MAX(number) FROM candidates WHERE generation = 0 AND kind = 'valid'"),
+        "the initial population ends at its last passing design"
+    );
+    assert_eq!(sql("SELECT COUNT(*) FROM infeasible_cells"), "0");
+    assert_eq!(
+        sql("SELECT COUNT(*) FROM cells c JOIN candidates d ON d.run_id = c.run_id AND d.number = c.candidate WHERE d.kind <> 'valid'"),
+        "0"
+    );
+    assert_eq!(
+        sql("SELECT COUNT(*) FROM candidates WHERE infeasible_placement IS NOT NULL"),
+        "0"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -13,7 +13,11 @@ fn sql(db: &std::path::Path, query: &str) -> String {
         .arg(query)
         .output()
         .expect("sqlite3 runs");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout).unwrap().trim().to_string()
 }
 
@@ -36,7 +40,10 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "2|0");
 
     // Resumed without the experiment file: from the database alone.
-    let out = run_ok("strider-coordinator", &["run", "--db", db.to_str().unwrap()]);
+    let out = run_ok(
+        "strider-coordinator",
+        &["run", "--db", db.to_str().unwrap()],
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0003`"), "{err}");
     assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "3");
@@ -56,7 +63,12 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
          AND json_type(outcome, '$.stats') = 'object'",
     );
     assert_eq!(missing, "0");
-    assert!(sql(&db, "SELECT COUNT(*) FROM candidates").parse::<u64>().unwrap() > before.parse().unwrap());
+    assert!(
+        sql(&db, "SELECT COUNT(*) FROM candidates")
+            .parse::<u64>()
+            .unwrap()
+            > before.parse().unwrap()
+    );
     // The paper's method keeps no infeasible library.
     assert_eq!(sql(&db, "SELECT COUNT(*) FROM infeasible_cells"), "0");
     let library = export(&db);

@@ -280,3 +280,131 @@ fn a_coordinator_out_of_time_stops_leasing_exits_cleanly_and_the_next_one_finish
     assert_same_library(&export(&db), expected);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_second_coordinator_on_the_same_database_is_refused_naming_the_first() {
+    let dir = temp_dir("service-lock");
+    let db = dir.join("locked.db");
+    let (mut first, _) = serve(&dir, &db, 0, "60");
+    let secret = secret_file(&dir);
+    let (db_arg, secret_arg) = (db.to_str().unwrap(), secret.to_str().unwrap());
+    let second_serve = [
+        "serve",
+        "--db",
+        db_arg,
+        "--experiment",
+        FIXTURE,
+        "--listen",
+        "127.0.0.1:0",
+        "--token-file",
+        secret_arg,
+    ];
+    let second_run = ["run", FIXTURE, "--db", db_arg];
+    for args in [&second_serve[..], &second_run[..]] {
+        let out = Command::new(binary("strider-coordinator"))
+            .args(args)
+            .current_dir(strider_tests::workspace_root())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("is in use by another coordinator")
+                && err.contains(&format!("pid {}", first.pid())),
+            "{args:?}: {err}"
+        );
+    }
+    // The first goes on undisturbed, and stops cleanly.
+    first.signal(libc::SIGTERM);
+    assert!(first.wait_exit(FINISH).success(), "{}", first.log());
+    assert_eq!(integrity(&db), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn after_a_clean_stop_the_database_file_alone_is_whole() {
+    let dir = temp_dir("service-clean-exit");
+    let db = dir.join("clean.db");
+    let (mut coordinator, url) = serve(&dir, &db, 0, "60");
+    let w = worker(&dir, &url, "w");
+    coordinator.wait_for_line("generation 3", |l| l.contains("generation 3/20"), FINISH);
+    coordinator.signal(libc::SIGTERM);
+    assert!(
+        coordinator.wait_exit(FINISH).success(),
+        "{}",
+        coordinator.log()
+    );
+    drop(w);
+    // The log was copied in and emptied: the .db alone, copied elsewhere, is the database.
+    let wal = dir.join("clean.db-wal");
+    assert!(
+        !wal.exists() || std::fs::metadata(&wal).unwrap().len() == 0,
+        "a clean exit leaves no write-ahead log to replay"
+    );
+    let copy_dir = dir.join("copy");
+    std::fs::create_dir_all(&copy_dir).unwrap();
+    let copy = copy_dir.join("clean.db");
+    std::fs::copy(&db, &copy).unwrap();
+    assert_eq!(integrity(&copy), "ok");
+    assert_same_library(&export(&copy), &export(&db));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_backup_that_fails_at_exit_warns_and_the_run_stands() {
+    let dir = temp_dir("service-backup-fails");
+    let db = dir.join("live.db");
+    // The copy's directory does not exist: every copy fails.
+    let backup = dir.join("missing-directory").join("copy.db");
+    let (mut coordinator, url) = serve_with(
+        &dir,
+        &db,
+        0,
+        "60",
+        &[
+            "--backup",
+            backup.to_str().unwrap(),
+            "--backup-every",
+            "3600",
+        ],
+    );
+    let w = worker(&dir, &url, "w");
+    coordinator.wait_for_line("generation 2", |l| l.contains("generation 2/20"), FINISH);
+    coordinator.signal(libc::SIGTERM);
+    let status = coordinator.wait_exit(FINISH);
+    drop(w);
+    assert!(
+        status.success(),
+        "a failed copy must not fail the run: {}",
+        coordinator.log()
+    );
+    let log = coordinator.log();
+    assert!(
+        log.contains(&backup.display().to_string()) && log.contains("complete and committed"),
+        "{log}"
+    );
+    assert!(!dir.join("missing-directory").exists());
+    // Serving again resumes and finishes: the failure was not a reason to stop.
+    let (mut again, url) = serve_with(
+        &dir,
+        &db,
+        0,
+        "60",
+        &[
+            "--backup",
+            backup.to_str().unwrap(),
+            "--backup-every",
+            "3600",
+        ],
+    );
+    let w = worker(&dir, &url, "w2");
+    assert!(again.wait_exit(FINISH).success(), "{}", again.log());
+    drop(w);
+    let library = export(&db);
+    assert!(library["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["finished"] == true));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

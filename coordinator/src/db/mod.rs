@@ -37,6 +37,14 @@ pub enum DbError {
         path: String,
         source: std::io::Error,
     },
+    #[error("database {path} is in use by another coordinator ({holder}): stop it first, or use another --db")]
+    Locked { path: String, holder: String },
+    #[error("locking database {path} through {lock}: {source}")]
+    Lock {
+        path: String,
+        lock: String,
+        source: std::io::Error,
+    },
 }
 
 pub use strider_common::build_id;
@@ -271,6 +279,53 @@ pub struct StoredInfeasible {
 #[derive(Clone)]
 pub struct Db {
     pool: SqlitePool,
+    /// The writer's exclusive lock, held as long as any clone lives (`open_exclusive`).
+    _lock: Option<std::sync::Arc<std::fs::File>>,
+}
+
+/// Takes the exclusive lock that makes one coordinator the only writer of `path`: an
+/// advisory lock on `path.lock` (released by the system when the process ends, however it
+/// ends), which also says who holds it.
+fn lock(path: &Path) -> Result<std::fs::File, DbError> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".lock");
+    let lock_path = path.with_file_name(name);
+    let err = |source| DbError::Lock {
+        path: path.display().to_string(),
+        lock: lock_path.display().to_string(),
+        source,
+    };
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&lock_path)
+        .map_err(err)?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = std::io::Read::read_to_string(&mut file, &mut holder);
+            let holder = holder.trim();
+            return Err(DbError::Locked {
+                path: path.display().to_string(),
+                holder: if holder.is_empty() {
+                    "holder unknown".into()
+                } else {
+                    holder.to_string()
+                },
+            });
+        }
+        Err(std::fs::TryLockError::Error(e)) => return Err(err(e)),
+    }
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_else(|_| "this host".into());
+    let me = format!("pid {} on {host}", std::process::id());
+    file.set_len(0).map_err(err)?;
+    std::io::Write::write_all(&mut file, me.as_bytes()).map_err(err)?;
+    Ok(file)
 }
 
 /// A shortfall's place in the order of outcomes, from its stored figure: speed for trials
@@ -304,6 +359,16 @@ fn placement_name(p: Placement) -> &'static str {
 }
 
 impl Db {
+    /// Opens a database to write it, as its only writer: refuses while another process
+    /// holds it ([`DbError::Locked`], naming the holder), then opens (creating if asked)
+    /// and migrates it.
+    pub async fn open_exclusive(path: &Path, create: bool) -> Result<Self, DbError> {
+        let lock = lock(path)?;
+        let mut db = Self::open(path, create).await?;
+        db._lock = Some(std::sync::Arc::new(lock));
+        Ok(db)
+    }
+
     /// Opens (creating if asked) a database file and brings its schema up to date.
     pub async fn open(path: &Path, create: bool) -> Result<Self, DbError> {
         let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
@@ -337,7 +402,7 @@ impl Db {
                 source: e,
             })?;
         sqlx::migrate!("./migrations").run(&pool).await?;
-        Ok(Self { pool })
+        Ok(Self { pool, _lock: None })
     }
 
     /// The stored experiment, if any.
@@ -608,10 +673,15 @@ impl Db {
         let target = partial
             .to_str()
             .ok_or_else(|| err(std::io::Error::other("the path is not UTF-8")))?;
-        sqlx::query("VACUUM INTO ?")
+        if let Err(e) = sqlx::query("VACUUM INTO ?")
             .bind(target)
             .execute(&self.pool)
-            .await?;
+            .await
+        {
+            // No half copy left behind.
+            let _ = std::fs::remove_file(&partial);
+            return Err(err(std::io::Error::other(e.to_string())));
+        }
         std::fs::File::open(&partial)
             .and_then(|f| f.sync_all())
             .map_err(err)?;

@@ -259,9 +259,21 @@ pub async fn serve(
         eprintln!("{}", progress_line(&shared));
         ended = Ended::Finished;
     }
+    // A clean exit leaves the database file whole by itself: the write-ahead log copied
+    // in and emptied, so the .db alone can be copied or moved.
+    match shared.db.checkpoint(true).await {
+        Ok(Some(_)) => {}
+        Ok(None) => tracing::warn!(
+            "the write-ahead log is in use by a reader: the database needs its -wal file until the next start"
+        ),
+        Err(e) => tracing::warn!("checkpointing the database at exit: {e}"),
+    }
     if let Some(backup) = &opts.backup {
-        shared.db.backup_to(&backup.path).await?;
-        tracing::info!("copied the database to {}", backup.path.display());
+        // The live database is complete: a failed copy costs the copy, not the run.
+        match shared.db.backup_to(&backup.path).await {
+            Ok(()) => tracing::info!("copied the database to {}", backup.path.display()),
+            Err(e) => tracing::warn!("{e}; the database itself is complete and committed"),
+        }
     }
     Ok(ended)
 }
