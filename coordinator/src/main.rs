@@ -23,6 +23,18 @@ use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
 use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
 use strider_worker::batch::default_threads;
+use strider_worker::cli::closed_pipe;
+
+/// Writes a line to standard output and returns from the command on an error: a reader that
+/// closed the pipe early (`| head`) ends the command quietly (`closed_pipe` in `main`).
+macro_rules! outln {
+    ($($t:tt)*) => { writeln!(std::io::stdout().lock(), $($t)*)? };
+}
+
+/// [`outln`] without the newline.
+macro_rules! out {
+    ($($t:tt)*) => { write!(std::io::stdout().lock(), $($t)*)? };
+}
 
 #[derive(Parser)]
 #[command(
@@ -175,20 +187,6 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
-}
-
-fn closed_pipe(e: &anyhow::Error) -> bool {
-    e.chain().any(|cause| {
-        cause
-            .downcast_ref::<std::io::Error>()
-            .map(|io| io.kind())
-            .or_else(|| {
-                cause
-                    .downcast_ref::<serde_json::Error>()
-                    .and_then(|j| j.io_error_kind())
-            })
-            == Some(std::io::ErrorKind::BrokenPipe)
-    })
 }
 
 /// One thread for `run` and the offline commands: there the async work is moving a few
@@ -454,7 +452,7 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             "feasible_elites": r.feasible_elites, "infeasible_elites": r.infeasible_elites,
             "infeasible_only": r.infeasible_only,
         })).collect();
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "experiment": p.experiment, "workers_connected": p.workers_connected,
@@ -463,11 +461,13 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    println!(
+    outln!(
         "experiment `{}`: {} workers connected, {:.1} trials/s over the last minute",
-        p.experiment, p.workers_connected, p.trials_per_second
+        p.experiment,
+        p.workers_connected,
+        p.trials_per_second
     );
-    println!("run  scheme   repeat  generation        initial  trials    pending  feasible  infeasible only  coverage  best      mean      QD score");
+    outln!("run  scheme   repeat  generation        initial  trials    pending  feasible  infeasible only  coverage  best      mean      QD score");
     for r in &p.runs {
         let scheme = strider_proto::convert::scheme_from_wire(r.scheme)
             .map(|s| s.name())
@@ -477,7 +477,7 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
         } else {
             format!("{}/{}", r.generation, r.generations)
         };
-        println!(
+        outln!(
             "{:<4} {:<8} {:<7} {:<17} {:<8} {:<9} {:<8} {:<9} {:<16} {:<9} {:<9.4} {:<9.4} {:.2}",
             r.run,
             scheme,
@@ -699,7 +699,7 @@ async fn analyse(path: &Path) -> anyhow::Result<()> {
     if unfinished > 0 {
         eprintln!("note: {unfinished} runs are not finished; figures are from their last committed generation");
     }
-    print!(
+    out!(
         "{}",
         summarise(&results, &experiment.schemes, experiment.brief.payload)
     );
@@ -709,7 +709,7 @@ async fn analyse(path: &Path) -> anyhow::Result<()> {
 fn check(path: &Path) -> anyhow::Result<()> {
     let e = Experiment::load(path)?;
     let runs = e.runs();
-    println!(
+    outln!(
         "experiment `{}`: {} runs; each {} initial designs, then {} generations of {} ({} offspring)",
         e.name,
         runs.len(),
@@ -718,7 +718,7 @@ fn check(path: &Path) -> anyhow::Result<()> {
         e.run.offspring_per_generation,
         e.offspring_per_run()
     );
-    println!(
+    outln!(
         "trial {} s at {} Hz control, physics step {:.5} s; brief: mass <= {} kg, height >= {} m, speed >= {} m/s, payload {} kg",
         e.run.trial_seconds,
         e.run.control_hz,
@@ -728,7 +728,7 @@ fn check(path: &Path) -> anyhow::Result<()> {
         e.brief.min_speed,
         e.brief.payload
     );
-    println!(
+    outln!(
         "search: {}{}; a trial ends when the robot falls: tilt > {} degrees, body centre below {} of its start height{}",
         e.search.constraints.name(),
         match e.search.constraints {
@@ -749,9 +749,11 @@ fn check(path: &Path) -> anyhow::Result<()> {
         }
     );
     for r in runs {
-        println!(
+        outln!(
             "  {:<7} repeat {:>3}  seed {}",
-            r.scheme, r.repeat, r.seed.0
+            r.scheme,
+            r.repeat,
+            r.seed.0
         );
     }
     Ok(())

@@ -169,3 +169,34 @@ fn docs_parameter_table_matches_the_code() {
         "docs/model.md's parameter table is stale: paste `strider-worker params` between the markers"
     );
 }
+
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
+    use std::io::{BufRead, BufReader};
+    // 3,000 runs: about 100 KB of listing, more than a pipe holds, so the writer is still
+    // writing when the reader goes.
+    let dir = strider_tests::temp_dir("pipe");
+    let file = dir.join("many.toml");
+    std::fs::write(
+        &file,
+        "name = \"many\"\nschemes = [\"static\", \"genome\", \"es\"]\nrepeats = 1000\nseed = 1\n",
+    )
+    .unwrap();
+    let mut child = std::process::Command::new(strider_tests::binary("strider-coordinator"))
+        .args(["check", file.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("experiment `many`"), "{first}");
+    // The reader is dropped here, like `| head -1`.
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -4,6 +4,7 @@
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use std::io::Write;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,6 +19,17 @@ use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
 use strider_worker::replay::Replay;
 use strider_worker::survey::Survey;
 use strider_worker::trace::CsvTrace;
+
+/// Writes a line to standard output and returns from the command on an error: a reader that
+/// closed the pipe early (`| head`) ends the command quietly (`closed_pipe` in `main`).
+macro_rules! outln {
+    ($($t:tt)*) => { writeln!(std::io::stdout().lock(), $($t)*)? };
+}
+
+/// [`outln`] without the newline.
+macro_rules! out {
+    ($($t:tt)*) => { write!(std::io::stdout().lock(), $($t)*)? };
+}
 
 #[derive(Parser)]
 #[command(
@@ -154,6 +166,8 @@ enum Command {
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        // `survey | head`: the reader had enough; not an error.
+        Err(e) if strider_worker::cli::closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
@@ -300,12 +314,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             }
             if json {
-                println!(
+                outln!(
                     "{}",
                     serde_json::to_string_pretty(&outcome).context("serialising the outcome")?
                 );
             } else {
-                print_outcome(&outcome);
+                print_outcome(&outcome)?;
             }
             Ok(())
         }
@@ -347,11 +361,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             scheme,
         } => {
             let mut rng = CandidateSeed::new(seed, candidate).rng(Purpose::RandomGenome);
-            println!("{}", Genome::random(scheme, &mut rng).to_json_pretty());
+            outln!("{}", Genome::random(scheme, &mut rng).to_json_pretty());
             Ok(())
         }
         Command::Params => {
-            print!("{}", strider_common::params::markdown_table());
+            out!("{}", strider_common::params::markdown_table());
             Ok(())
         }
     }
@@ -360,12 +374,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 /// Prints a report as pretty JSON or as its table.
 fn emit<T: serde::Serialize + std::fmt::Display>(report: &T, json: bool) -> anyhow::Result<()> {
     if json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(report).context("serialising the report")?
         );
     } else {
-        println!("{report}");
+        outln!("{report}");
     }
     Ok(())
 }
@@ -395,14 +409,14 @@ fn outcome_summary(o: &Outcome) -> String {
     }
 }
 
-fn print_outcome(o: &Outcome) {
-    println!("outcome          {}", o.kind());
+fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
+    outln!("outcome          {}", o.kind());
     if let Some(s) = o.stats() {
-        println!("distance         {:.3} m", s.distance);
-        println!("speed            {:.3} m/s", s.speed);
-        println!("energy           {:.1} J", s.energy);
-        println!("cost of transport {:.4}", s.cost_of_transport);
-        println!("mass             {:.2} kg", s.mass);
+        outln!("distance         {:.3} m", s.distance);
+        outln!("speed            {:.3} m/s", s.speed);
+        outln!("energy           {:.1} J", s.energy);
+        outln!("cost of transport {:.4}", s.cost_of_transport);
+        outln!("mass             {:.2} kg", s.mass);
     }
     match o {
         Outcome::Valid {
@@ -411,24 +425,25 @@ fn print_outcome(o: &Outcome) {
             cell,
             ..
         } => {
-            println!("fitness          {fitness:.4}");
-            println!("features         {:?}", features.0);
-            println!("cell             {}", cell.0);
+            outln!("fitness          {fitness:.4}");
+            outln!("features         {:?}", features.0);
+            outln!("cell             {}", cell.0);
         }
         Outcome::Rejected { violations, .. } => {
             for v in violations {
-                println!("rejected         {v}");
+                outln!("rejected         {v}");
             }
         }
         Outcome::Invalid {
             reason, at_time, ..
         } => {
-            println!("invalid          {reason} at t = {at_time:.3} s");
+            outln!("invalid          {reason} at t = {at_time:.3} s");
         }
     }
     let c = o.controller();
-    println!(
+    outln!(
         "controller       {}",
         serde_json::to_string(c).expect("controller serialises")
     );
+    Ok(())
 }
