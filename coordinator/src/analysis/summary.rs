@@ -67,6 +67,8 @@ pub struct SchemeSummary {
     pub top_features: [f64; FEATURE_COUNT],
     /// Mean controller of each repeat's best design.
     pub best_controller: [f64; CONTROLLER_LEN],
+    /// Repeats whose library holds a design (those the mean controller is over).
+    pub repeats_with_designs: usize,
     /// Design rules from the top designs (None with fewer than 2 designs).
     pub rules: Option<Rules>,
     /// Where the brief binds.
@@ -230,6 +232,7 @@ fn scheme_summary(scheme: Scheme, runs: &[&RunResult<'_>], payload: f64) -> Sche
         top_designs: designs.len(),
         top_features,
         best_controller,
+        repeats_with_designs: bests.len(),
         rules: mine_rules(&designs, RULE_THRESHOLD).ok(),
         frontier: frontier(runs.iter().copied()),
     }
@@ -292,6 +295,10 @@ impl fmt::Display for Summary {
             100.0 * TOP_SHARE
         )?;
         for s in &self.schemes {
+            if s.top_designs == 0 {
+                writeln!(f, "  {:<7} no design meets the brief", s.scheme)?;
+                continue;
+            }
             write!(f, "  {:<7} ({} designs):", s.scheme, s.top_designs)?;
             for (name, v) in FEATURE_NAMES.iter().zip(&s.top_features) {
                 write!(f, " {name} {v:.4}")?;
@@ -300,7 +307,15 @@ impl fmt::Display for Summary {
         }
         writeln!(f, "\nMean controller of each repeat's best design")?;
         for s in &self.schemes {
-            write!(f, "  {:<7}:", s.scheme)?;
+            if s.repeats_with_designs == 0 {
+                writeln!(f, "  {:<7} no design meets the brief", s.scheme)?;
+                continue;
+            }
+            write!(
+                f,
+                "  {:<7} ({} of {} repeats):",
+                s.scheme, s.repeats_with_designs, s.repeats
+            )?;
             for (p, v) in CONTROLLER_PARAMS.iter().zip(&s.best_controller) {
                 write!(f, " {} {v:.3}", p.name)?;
             }
