@@ -4,6 +4,7 @@
 //! its projected corners, far parts first. World frame: x forward, y up, z to the right.
 
 use crate::body_plan::{BodyPlan, Side};
+use crate::hull::convex_hull;
 use crate::params::LINKS_PER_LEG;
 use crate::pose::StartPose;
 use crate::xml::{escape, svg_document};
@@ -110,36 +111,6 @@ impl View {
     }
 }
 
-/// Convex hull (counter-clockwise) of 2-D points: the outline of a projected cuboid.
-fn hull(mut pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
-        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
-    };
-    let mut lower: Vec<(f64, f64)> = Vec::new();
-    for &p in &pts {
-        while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], p) <= 0.0 {
-            lower.pop();
-        }
-        lower.push(p);
-    }
-    let mut upper: Vec<(f64, f64)> = Vec::new();
-    for &p in pts.iter().rev() {
-        while upper.len() >= 2 && cross(upper[upper.len() - 2], upper[upper.len() - 1], p) <= 0.0 {
-            upper.pop();
-        }
-        upper.push(p);
-    }
-    lower.pop();
-    upper.pop();
-    lower.extend(upper);
-    lower
-}
-
 /// The region a view of some parts covers: (min across, max across, min up, max up), m.
 fn extent(view: View, parts: &[Part]) -> (f64, f64, f64, f64) {
     let mut e = (
@@ -188,14 +159,15 @@ fn draw_parts(out: &mut String, view: View, parts: &[Part], frame: &Frame) {
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
     for (_, part) in order {
-        let outline = hull(
-            part.corners
+        let outline = convex_hull(
+            &part
+                .corners
                 .iter()
                 .map(|c| {
                     let (a, u, _) = view.project(c);
                     frame.px(a, u)
                 })
-                .collect(),
+                .collect::<Vec<_>>(),
         );
         let points: Vec<String> = outline
             .iter()
@@ -489,7 +461,7 @@ mod tests {
             (0.5, 0.5),
             (1.0, 1.0),
         ];
-        let h = hull(pts);
+        let h = convex_hull(&pts);
         assert_eq!(h.len(), 4);
         assert!(h.contains(&(0.0, 0.0)) && h.contains(&(1.0, 1.0)));
     }

@@ -8,6 +8,7 @@ use crate::body_plan::{BodyPlan, LegPlan, TripodSet};
 use crate::contact::{first_touch, part_boxes, Touch};
 use crate::gait::leg_targets;
 use crate::genome::Controller;
+use crate::hull::convex_hull;
 use crate::params::{C, GAIT_VERTICAL_OFFSET, LINKS_PER_LEG};
 use nalgebra::{Isometry3, Point3, Vector3};
 use std::f64::consts::PI;
@@ -122,38 +123,6 @@ pub fn support_margin(points: &[(f64, f64)], p: (f64, f64)) -> f64 {
     } else {
         -nearest
     }
-}
-
-/// The convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
-fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
-    let mut pts = points.to_vec();
-    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
-        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
-    };
-    let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * pts.len());
-    for pass in 0..2 {
-        let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &(f64, f64)>> = if pass == 0 {
-            Box::new(pts.iter())
-        } else {
-            Box::new(pts.iter().rev())
-        };
-        for &p in iter {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(p);
-        }
-        hull.pop();
-    }
-    hull
 }
 
 /// The commanded gait over a trial, with the body held still and level.

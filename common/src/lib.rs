@@ -11,6 +11,7 @@ pub mod experiment;
 pub mod features;
 pub mod gait;
 pub mod genome;
+pub mod hull;
 pub mod inspect;
 pub mod kinematics;
 pub mod mass;

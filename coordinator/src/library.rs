@@ -144,15 +144,16 @@ impl GenerationStats {
     }
 }
 
-/// Elites by cell, with the occupied cells in order so that drawing the i-th parent is
-/// O(log n), not O(n). What both libraries share.
+/// One elite per occupied cell, with the occupied cells in order so that drawing the i-th
+/// parent is O(log n), not O(n). Both libraries are archives: [`Library`] of designs that
+/// meet the brief, [`InfeasibleLibrary`] of designs nearest it.
 #[derive(Clone, Debug, PartialEq)]
-struct Cells<E> {
+pub struct Archive<E> {
     map: BTreeMap<CellIndex, E>,
     order: Vec<CellIndex>,
 }
 
-impl<E> Default for Cells<E> {
+impl<E> Default for Archive<E> {
     fn default() -> Self {
         Self {
             map: BTreeMap::new(),
@@ -161,13 +162,40 @@ impl<E> Default for Cells<E> {
     }
 }
 
-impl<E> Cells<E> {
-    fn nth(&self, i: usize) -> Option<&E> {
+impl<E> Archive<E> {
+    /// An empty archive.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Occupied cells.
+    pub fn len(&self) -> usize {
+        self.map.len()
+    }
+
+    /// Whether no cell is occupied.
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+
+    /// The elite of a cell.
+    pub fn get(&self, cell: CellIndex) -> Option<&E> {
+        self.map.get(&cell)
+    }
+
+    /// Elites in cell order (the order parents are drawn from).
+    pub fn elites(&self) -> impl Iterator<Item = (CellIndex, &E)> {
+        self.map.iter().map(|(c, e)| (*c, e))
+    }
+
+    /// The elite at a position in cell order.
+    pub fn nth(&self, i: usize) -> Option<&E> {
         self.order.get(i).and_then(|c| self.map.get(c))
     }
 
-    /// Puts `e` into `cell`, replacing its holder.
-    fn put(&mut self, cell: CellIndex, e: E) {
+    /// Puts an elite into its cell, replacing its holder (when an archive is reloaded from
+    /// the database).
+    pub fn restore(&mut self, cell: CellIndex, e: E) {
         if self.map.insert(cell, e).is_none() {
             let at = self.order.partition_point(|c| *c < cell);
             self.order.insert(at, cell);
@@ -179,7 +207,7 @@ impl<E> Cells<E> {
     fn offer(&mut self, cell: CellIndex, e: E, beats: impl Fn(&E, &E) -> bool) -> Change {
         match self.map.get_mut(&cell) {
             None => {
-                self.put(cell, e);
+                self.restore(cell, e);
                 Change::New
             }
             Some(old) if beats(&e, old) => {
@@ -197,48 +225,14 @@ enum Change {
     Discarded,
 }
 
-/// One run's feasible library: the designs that meet the whole brief.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Library {
-    cells: Cells<Elite>,
-}
+/// One run's feasible library: the designs that meet the whole brief, by fitness.
+pub type Library = Archive<Elite>;
+
+/// One run's infeasible library: per cell, the simulated design nearest the brief among
+/// those that miss it (feasible-infeasible search).
+pub type InfeasibleLibrary = Archive<InfeasibleElite>;
 
 impl Library {
-    /// An empty library.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Occupied cells.
-    pub fn len(&self) -> usize {
-        self.cells.map.len()
-    }
-
-    /// Whether no cell is occupied.
-    pub fn is_empty(&self) -> bool {
-        self.cells.map.is_empty()
-    }
-
-    /// The elite of a cell.
-    pub fn get(&self, cell: CellIndex) -> Option<&Elite> {
-        self.cells.map.get(&cell)
-    }
-
-    /// Elites in cell order (the order parents are drawn from).
-    pub fn elites(&self) -> impl Iterator<Item = (CellIndex, &Elite)> {
-        self.cells.map.iter().map(|(c, e)| (*c, e))
-    }
-
-    /// The elite at a position in cell order.
-    pub fn nth(&self, i: usize) -> Option<&Elite> {
-        self.cells.nth(i)
-    }
-
-    /// Puts an elite back into its cell (when a library is reloaded from the database).
-    pub fn restore(&mut self, cell: CellIndex, elite: Elite) {
-        self.cells.put(cell, elite);
-    }
-
     /// Applies one result: a valid design fills an empty cell or replaces a strictly less
     /// fit elite.
     pub fn apply(
@@ -265,10 +259,7 @@ impl Library {
             },
             fitness,
         };
-        match self
-            .cells
-            .offer(cell, elite, |new, old| new.fitness > old.fitness)
-        {
+        match self.offer(cell, elite, |new, old| new.fitness > old.fitness) {
             Change::New => Placement::New,
             Change::Improved => Placement::Improved,
             Change::Discarded => Placement::Discarded,
@@ -307,7 +298,7 @@ impl Library {
         // Sum in cell order so the figure is reproducible to the bit; one pass, since this
         // runs for every generation of every run while the scheduler is locked.
         let (mut sum, mut max, mut min) = (0.0, f64::NEG_INFINITY, f64::INFINITY);
-        for e in self.cells.map.values() {
+        for e in self.map.values() {
             sum += e.fitness;
             max = f64::max(max, e.fitness);
             min = f64::min(min, e.fitness);
@@ -320,44 +311,7 @@ impl Library {
     }
 }
 
-/// One run's infeasible library: per cell, the simulated design nearest the brief among
-/// those that miss it (feasible-infeasible search).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct InfeasibleLibrary {
-    cells: Cells<InfeasibleElite>,
-}
-
 impl InfeasibleLibrary {
-    /// Occupied cells.
-    pub fn len(&self) -> usize {
-        self.cells.map.len()
-    }
-
-    /// Whether no cell is occupied.
-    pub fn is_empty(&self) -> bool {
-        self.cells.map.is_empty()
-    }
-
-    /// The elite of a cell.
-    pub fn get(&self, cell: CellIndex) -> Option<&InfeasibleElite> {
-        self.cells.map.get(&cell)
-    }
-
-    /// Elites in cell order.
-    pub fn elites(&self) -> impl Iterator<Item = (CellIndex, &InfeasibleElite)> {
-        self.cells.map.iter().map(|(c, e)| (*c, e))
-    }
-
-    /// The elite at a position in cell order.
-    pub fn nth(&self, i: usize) -> Option<&InfeasibleElite> {
-        self.cells.nth(i)
-    }
-
-    /// Puts an elite back into its cell (when reloaded from the database).
-    pub fn restore(&mut self, cell: CellIndex, elite: InfeasibleElite) {
-        self.cells.put(cell, elite);
-    }
-
     /// Offers a simulated design that missed the brief, placed in `cell` (its features'
     /// cell): it fills an empty cell or replaces an elite it ranks strictly above. `None`
     /// for an outcome that is valid or was not simulated (those are not placed here).
@@ -379,10 +333,7 @@ impl InfeasibleLibrary {
             shortfall,
         };
         Some(
-            match self
-                .cells
-                .offer(cell, elite, |new, old| new.standing.beats(&old.standing))
-            {
+            match self.offer(cell, elite, |new, old| new.standing.beats(&old.standing)) {
                 Change::New => InfeasiblePlacement::New,
                 Change::Improved => InfeasiblePlacement::Improved,
                 Change::Discarded => InfeasiblePlacement::Discarded,
@@ -394,7 +345,6 @@ impl InfeasibleLibrary {
     pub fn summary(&self, mut stats: GenerationStats, feasible: &Library) -> GenerationStats {
         stats.infeasible_elites = self.len();
         stats.infeasible_only = self
-            .cells
             .map
             .keys()
             .filter(|c| feasible.get(**c).is_none())
