@@ -90,7 +90,7 @@ enum Command {
         /// Seconds a lease lasts without a heartbeat.
         #[arg(long, default_value_t = 60.0)]
         lease_seconds: f64,
-        /// Leases a candidate may lose (worker died or hung) before it is marked failed.
+        /// Workers that may die while simulating a candidate before it is marked failed.
         #[arg(long, default_value_t = 3)]
         max_attempts: u32,
         /// Seconds between progress lines.

@@ -28,8 +28,9 @@ use strider_worker::evaluate::{precheck, EvalContext};
 /// affect results.
 pub const INITIAL_WINDOW: u64 = 4096;
 
-/// Leases a candidate may lose (worker died, hung, or disconnected) before it is marked
-/// failed.
+/// Workers a candidate may take down with it (each died or lost its connection while
+/// simulating it) before it is marked failed. Hand-backs, expired leases and leases never
+/// started do not count: they say nothing about the candidate.
 pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
 
 /// A worker connection (ids are never reused).
@@ -96,7 +97,12 @@ pub enum Accepted {
 #[derive(Clone, Debug, PartialEq)]
 enum State {
     Waiting,
-    Leased { worker: WorkerId, expires: Instant },
+    Leased {
+        worker: WorkerId,
+        expires: Instant,
+        /// The worker said it began simulating it.
+        started: bool,
+    },
     Resolved(Outcome),
 }
 
@@ -295,7 +301,11 @@ impl Scheduler {
             .step
             .get_mut(&number)
             .expect("waiting candidates are in the step");
-        p.state = State::Leased { worker, expires };
+        p.state = State::Leased {
+            worker,
+            expires,
+            started: false,
+        };
         let key = CandidateKey {
             run: i as u32,
             generation: p.generation,
@@ -354,9 +364,29 @@ impl Scheduler {
         let until = now + self.lease;
         for key in keys {
             if let Some(p) = self.pending_mut(*key) {
-                if let State::Leased { worker: w, expires } = &mut p.state {
+                if let State::Leased {
+                    worker: w, expires, ..
+                } = &mut p.state
+                {
                     if *w == worker {
                         *expires = until;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `worker` began simulating `keys`: from now on, losing it with them counts as an
+    /// attempt.
+    pub fn started(&mut self, worker: WorkerId, keys: &[CandidateKey]) {
+        for key in keys {
+            if let Some(p) = self.pending_mut(*key) {
+                if let State::Leased {
+                    worker: w, started, ..
+                } = &mut p.state
+                {
+                    if *w == worker {
+                        *started = true;
                     }
                 }
             }
@@ -371,28 +401,41 @@ impl Scheduler {
         }
     }
 
-    /// `worker` is gone: its leases count as lost.
+    /// `worker` is gone: what it held waits again, and each candidate it had begun
+    /// simulating counts one attempt (a candidate that takes down every worker that
+    /// simulates it fails after `max_attempts`; one that was only queued is not suspect).
     pub fn disconnect(&mut self, worker: WorkerId, why: &str) {
-        for key in self.leases_where(|w, _| w == worker) {
+        for key in self.leases_where(|w, _, started| w == worker && started) {
             self.end_lease(key, |w| w == worker, Some(why));
+        }
+        for key in self.leases_where(|w, _, _| w == worker) {
+            self.end_lease(key, |w| w == worker, None);
         }
     }
 
-    /// Leases past their time count as lost; returns how many.
+    /// Leases past their time wait again, with no attempt counted: a worker simulating a
+    /// candidate keeps heartbeating it, so an expiry says its worker stalled or its
+    /// network did, not that the candidate is at fault. Returns how many expired. A
+    /// result that comes late is still taken if the candidate has none yet.
     pub fn expire(&mut self, now: Instant) -> usize {
-        let expired = self.leases_where(|_, expires| expires <= now);
+        let expired = self.leases_where(|_, expires, _| expires <= now);
         for key in &expired {
-            self.end_lease(*key, |_| true, Some("lease expired without a result"));
+            self.end_lease(*key, |_| true, None);
         }
         expired.len()
     }
 
-    fn leases_where(&self, f: impl Fn(WorkerId, Instant) -> bool) -> Vec<CandidateKey> {
+    fn leases_where(&self, f: impl Fn(WorkerId, Instant, bool) -> bool) -> Vec<CandidateKey> {
         let mut out = Vec::new();
         for (i, r) in self.runs.iter().enumerate() {
             for (n, p) in &r.step {
-                if let State::Leased { worker, expires } = p.state {
-                    if f(worker, expires) {
+                if let State::Leased {
+                    worker,
+                    expires,
+                    started,
+                } = p.state
+                {
+                    if f(worker, expires, started) {
                         out.push(CandidateKey {
                             run: i as u32,
                             generation: p.generation,

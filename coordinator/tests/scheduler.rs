@@ -229,9 +229,11 @@ fn a_candidate_that_keeps_killing_workers_fails_and_its_generation_goes_on() {
         let o = outcome_of(&e, &a);
         s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
     };
+    s.started(WorkerId(0), &[victim.key]);
     s.disconnect(WorkerId(0), "connection lost");
     let again = s.lease(WorkerId(1), now, 100);
     assert!(again.iter().any(|a| a.key == victim.key));
+    s.started(WorkerId(1), &[victim.key]);
     s.disconnect(WorkerId(1), "connection lost");
     s.take_writes();
     // Two lost leases (the limit here): failed, with the reason, and never leased again.
@@ -343,4 +345,102 @@ fn under_the_papers_method_only_designs_that_meet_the_brief_are_placed() {
     // The same experiment with both libraries draws other parents: the method matters.
     let (both, _) = drive_experiment(&experiment(), 2, 3, |_| {});
     assert_ne!(both, libraries);
+}
+
+/// Leases until the first candidate of generation 1 comes up (the initial population
+/// done), answering everything else.
+fn first_offspring(e: &Experiment, s: &mut Scheduler, now: Instant) -> Assignment {
+    loop {
+        let a = s.lease(WorkerId(0), now, 1).pop().unwrap();
+        if a.key.generation == 1 {
+            return a;
+        }
+        let o = outcome_of(e, &a);
+        s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
+    }
+}
+
+/// Whether `key` was ever written as failed.
+fn failed_in(writes: &[Write], key: CandidateKey) -> bool {
+    writes.iter().any(|w| match w {
+        Write::Resolved {
+            number, outcome, ..
+        } => {
+            *number == key.number
+                && matches!(
+                    outcome,
+                    Outcome::Invalid {
+                        reason: InvalidReason::EvaluationFailed { .. },
+                        ..
+                    }
+                )
+        }
+        _ => false,
+    })
+}
+
+#[test]
+fn losing_workers_that_never_began_a_candidate_or_stalled_costs_it_no_attempt() {
+    let e = experiment();
+    let mut s = fresh(&e, 2);
+    let now = Instant::now();
+    let victim = first_offspring(&e, &mut s, now);
+    s.disconnect(WorkerId(0), "stream dropped");
+    s.take_writes();
+    // Ten sessions take it and drop their streams before starting it, ten more stall
+    // past the lease, ten hand it back: none of it says anything about the candidate.
+    let mut t = now;
+    for w in 1..=30u64 {
+        let got = s.lease(WorkerId(w), t, 100);
+        assert!(got.iter().any(|a| a.key == victim.key), "round {w}");
+        match w % 3 {
+            0 => s.disconnect(WorkerId(w), "stream dropped"),
+            1 => {
+                t += LEASE + Duration::from_secs(1);
+                assert!(s.expire(t) >= 1);
+            }
+            _ => {
+                let keys: Vec<CandidateKey> = got.iter().map(|a| a.key).collect();
+                s.release(WorkerId(w), &keys);
+            }
+        }
+    }
+    let writes = s.take_writes();
+    assert!(!failed_in(&writes, victim.key));
+    assert!(
+        !writes.iter().any(|w| matches!(w, Write::LeaseLost { .. })),
+        "no attempt was counted"
+    );
+    // A worker that began it and died does count.
+    let got = s.lease(WorkerId(99), t, 100);
+    assert!(got.iter().any(|a| a.key == victim.key));
+    s.started(WorkerId(99), &[victim.key]);
+    s.disconnect(WorkerId(99), "connection lost");
+    let writes = s.take_writes();
+    assert!(writes.iter().any(|w| matches!(
+        w,
+        Write::LeaseLost { number, attempts: 1, .. } if *number == victim.key.number
+    )));
+}
+
+#[test]
+fn a_late_result_after_an_expiry_is_taken_when_no_other_worker_answered() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let t0 = Instant::now();
+    let a = s.lease(WorkerId(1), t0, 1).pop().unwrap();
+    let later = t0 + LEASE + Duration::from_secs(1);
+    assert_eq!(s.expire(later), 1);
+    // Leased again, to a worker that has not answered yet; the stalled one answers first.
+    let again = s.lease(WorkerId(2), later, 100);
+    assert!(again.iter().any(|b| b.key == a.key));
+    let o = outcome_of(&e, &a);
+    assert_eq!(
+        s.accept(WorkerId(1), a.key, o.clone(), 0.0),
+        Ok(Accepted::Stored)
+    );
+    assert_eq!(
+        s.accept(WorkerId(2), a.key, o, 0.0),
+        Ok(Accepted::Duplicate)
+    );
 }

@@ -112,7 +112,19 @@ pub fn secret_file(dir: &std::path::Path, secret: &str) -> PathBuf {
 /// The library `strider-coordinator run` builds for an experiment file on this machine
 /// (2 threads): what every distributed run of it must end in.
 pub fn library_run_builds(experiment: &str) -> serde_json::Value {
-    let dir = temp_dir("reference");
+    run_builds(experiment).0
+}
+
+/// What `strider-coordinator run` builds for an experiment file on this machine: the
+/// export (library and generations) and every candidate row ([`candidate_rows`]).
+pub fn run_builds(experiment: &str) -> (serde_json::Value, String) {
+    let dir = temp_dir(&format!(
+        "reference-{}",
+        std::path::Path::new(experiment)
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("experiment")
+    ));
     let db = dir.join("reference.db");
     run_ok(
         "strider-coordinator",
@@ -126,8 +138,26 @@ pub fn library_run_builds(experiment: &str) -> serde_json::Value {
         ],
     );
     let e = export(&db);
+    let rows = candidate_rows(&db);
     std::fs::remove_dir_all(&dir).expect("removing the reference's directory");
-    e
+    (e, rows)
+}
+
+/// Every row of the `candidates` table in order, outcomes and placements included, as
+/// the sqlite3 shell prints them (`.ci/run` installs it): equal for two databases
+/// exactly when every candidate was drawn, evaluated and placed alike.
+pub fn candidate_rows(db: &std::path::Path) -> String {
+    let out = Command::new("sqlite3")
+        .arg(db)
+        .arg("SELECT * FROM candidates ORDER BY run_id, number")
+        .output()
+        .expect("sqlite3 is installed (.ci/run installs it)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("utf-8 rows")
 }
 
 /// The whole library and every generation's statistics, as `export` writes them.
@@ -252,6 +282,11 @@ impl Process {
         // SAFETY: kill(2) on a child we own and have not reaped.
         let r = unsafe { libc::kill(self.child.id() as i32, signal) };
         assert_eq!(r, 0, "kill({}, {signal})", self.child.id());
+    }
+
+    /// Its exit status if it has exited, without waiting.
+    pub fn exited(&mut self) -> Option<std::process::ExitStatus> {
+        self.child.try_wait().expect("try_wait")
     }
 
     /// Waits for it to exit by itself within `timeout`; panics with the log otherwise.

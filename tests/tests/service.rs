@@ -149,7 +149,12 @@ fn killed_stopped_and_terminated_workers_change_nothing() {
     );
     finish(&mut coordinator);
     assert!(steady.wait_exit(START).success());
-    drop((stopped, killed));
+    // The stalled worker's late results were taken or ignored, never refused: it stayed
+    // to the end and left when told the experiment was finished.
+    let mut stopped = stopped;
+    let status = stopped.wait_exit(START);
+    assert!(status.success(), "{status:?}\n{}", stopped.log());
+    drop(killed);
     assert_same_library(&export(&db), expected);
     assert_eq!(integrity(&db), "ok");
     std::fs::remove_dir_all(&dir).unwrap();

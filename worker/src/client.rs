@@ -348,13 +348,20 @@ async fn session(
                 }
                 Ok(Some(_)) => {}
                 Ok(None) => return lost("the coordinator closed the stream".into()),
-                Err(s) if permanent(&s) => return Err(WorkerError::Refused(s.message().to_string())),
-                Err(s) => return lost(s.message().to_string()),
+                // Past Welcome, a refusal is of one message (a result the coordinator
+                // would not take): reconnect and go on rather than leave for good.
+                Err(s) => return lost(format!("{:?}: {}", s.code(), s.message())),
             },
             permit = cores.clone().acquire_owned(), if !queue.is_empty() => {
                 let permit = permit.expect("the semaphore is never closed");
                 let j = queue.pop_front().expect("checked non-empty");
                 running.insert((j.id.run, j.id.generation, j.id.number));
+                // Said before simulating, so that a worker that dies in this trial counts
+                // against the candidate (a crash it causes is caught after a few).
+                let began = v1::Heartbeat { in_progress: Vec::new(), started: vec![j.id] };
+                if out.send(msg(worker_message::Kind::Heartbeat(began))).await.is_err() {
+                    return lost("the stream closed".into());
+                }
                 pool.run(Trial {
                     key: j.id,
                     ctx,
@@ -379,7 +386,7 @@ async fn session(
                     .chain(queue.iter().map(|j| j.id))
                     .collect();
                 if !in_progress.is_empty()
-                    && out.send(msg(worker_message::Kind::Heartbeat(v1::Heartbeat { in_progress }))).await.is_err()
+                    && out.send(msg(worker_message::Kind::Heartbeat(v1::Heartbeat { in_progress, started: Vec::new() }))).await.is_err()
                 {
                     return lost("the stream closed".into());
                 }

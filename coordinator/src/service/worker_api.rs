@@ -117,6 +117,7 @@ impl WorkerService for WorkerApi {
             id,
             slots: hello.slots as usize,
             held: HashSet::new(),
+            draining: false,
             results: 0,
             tx,
         };
@@ -129,8 +130,13 @@ struct Session {
     shared: Arc<Shared>,
     id: WorkerId,
     slots: usize,
-    /// Candidates leased to this worker and not answered.
+    /// Candidates leased to this worker and not answered by it. A lease that expired
+    /// stays here: the worker may still be simulating it (it stalled, then went on), and
+    /// its late result is taken or, if another worker answered first, ignored.
     held: HashSet<CandidateKey>,
+    /// The worker gave candidates back: it is shutting down, so it is leased nothing
+    /// more (what it returned would come straight back to it).
+    draining: bool,
     results: u64,
     tx: Outbound,
 }
@@ -197,7 +203,7 @@ impl Session {
     /// Leases candidates until the worker's slots are full or none is available.
     async fn top_up(&mut self) -> Result<(), String> {
         let room = self.slots.saturating_sub(self.held.len());
-        if room == 0 {
+        if room == 0 || self.draining {
             return Ok(());
         }
         let id = self.id;
@@ -205,7 +211,12 @@ impl Session {
             .shared
             .with(false, |s| s.lease(id, Instant::now(), room));
         for a in leased {
-            self.held.insert(a.key);
+            if !self.held.insert(a.key) {
+                // Its lease expired while this worker still had it, and came back to the
+                // same worker: it is still queued or simulating there; sending it again
+                // would simulate it twice.
+                continue;
+            }
             let m = coordinator_message::Kind::Assignment(v1::Assignment {
                 id: Some(key_to_wire(a.key)),
                 genome: Some((&a.genome).into()),
@@ -228,9 +239,16 @@ impl Session {
                     .iter()
                     .map(|k| key_from_wire(Some(k)))
                     .collect::<Result<Vec<_>, _>>()?;
+                let started = h
+                    .started
+                    .iter()
+                    .map(|k| key_from_wire(Some(k)))
+                    .collect::<Result<Vec<_>, _>>()?;
                 let id = self.id;
-                self.shared
-                    .with(false, |s| s.heartbeat(id, &keys, Instant::now()));
+                self.shared.with(false, |s| {
+                    s.heartbeat(id, &keys, Instant::now());
+                    s.started(id, &started);
+                });
                 Ok(())
             }
             Some(worker_message::Kind::Release(r)) => {
@@ -242,6 +260,7 @@ impl Session {
                 for k in &keys {
                     self.held.remove(k);
                 }
+                self.draining = true;
                 let id = self.id;
                 self.shared.with(true, |s| s.release(id, &keys));
                 Ok(())

@@ -1,0 +1,223 @@
+//! A run through a storm of failures ends exactly as `run` ends it (issue 14): on one
+//! served run, a seeded schedule of at least 10 coordinator SIGKILLs (each followed by a
+//! restart on the same database) and 20 worker events (SIGKILL, SIGTERM, SIGSTOP past the
+//! lease then SIGCONT, a client that takes 64 leases and drops its stream) at random
+//! times. At the end every candidate row (outcomes and placements included), the library
+//! and every generation's statistics equal `run`'s, and no candidate failed for want of
+//! a worker.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Duration;
+use strider_proto::v1::{self, worker_message, worker_service_client::WorkerServiceClient};
+use strider_tests::{
+    assert_same_library, binary, candidate_rows, export, free_port, run_builds, temp_dir, Process,
+};
+
+const FIXTURE: &str = "tests/fixtures/chaos.toml";
+const SECRET: &str = "chaos-secret-0123456789abcdef";
+/// Generous bounds: CI machines are slow and busy.
+const START: Duration = Duration::from_secs(60);
+const FINISH: Duration = Duration::from_secs(600);
+const COORDINATOR_KILLS: usize = 10;
+const WORKER_EVENTS: usize = 20;
+const WORKERS: usize = 3;
+
+/// splitmix64: the schedule's generator, seeded, so a failing schedule can be replayed.
+struct Schedule(u64);
+
+impl Schedule {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+
+    /// A pause before the next event: 20 to 220 ms.
+    fn pause(&mut self) -> Duration {
+        Duration::from_millis(20 + self.below(200))
+    }
+}
+
+fn serve(dir: &Path, db: &Path, port: u16) -> Process {
+    let mut cmd = Command::new(binary("strider-coordinator"));
+    cmd.args([
+        "serve",
+        "--db",
+        db.to_str().unwrap(),
+        "--experiment",
+        FIXTURE,
+    ])
+    .args(["--listen", &format!("127.0.0.1:{port}")])
+    .args([
+        "--token-file",
+        strider_tests::secret_file(dir, SECRET).to_str().unwrap(),
+    ])
+    .args(["--lease-seconds", "1", "--progress-every", "0.5"]);
+    let p = Process::spawn("coordinator", cmd);
+    p.wait_for_line(
+        "saying it serves",
+        |l| l.contains("serving experiment"),
+        START,
+    );
+    p
+}
+
+fn worker(dir: &Path, url: &str, name: &str) -> Process {
+    let mut cmd = Command::new(binary("strider-worker"));
+    cmd.args(["--connect", url, "--threads", "1", "--name", name])
+        .args([
+            "--token-file",
+            strider_tests::secret_file(dir, SECRET).to_str().unwrap(),
+        ])
+        .args(["--max-backoff-seconds", "0.3", "--drain-seconds", "2"]);
+    Process::spawn(name, cmd)
+}
+
+/// A client that says Hello with 64 slots, takes what it is leased (for up to a second)
+/// and drops its stream without a word. Returns how many leases it took.
+fn lease_and_drop(rt: &tokio::runtime::Runtime, url: &str) -> usize {
+    rt.block_on(async {
+        let Ok(mut client) = WorkerServiceClient::connect(url.to_string()).await else {
+            return 0; // the coordinator is restarting
+        };
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        tx.send(v1::WorkerMessage {
+            kind: Some(worker_message::Kind::Hello(v1::Hello {
+                protocol_version: strider_proto::PROTOCOL_VERSION,
+                worker_name: "lease-and-drop".into(),
+                slots: 64,
+                build: strider_common::build_id(),
+            })),
+        })
+        .await
+        .unwrap();
+        let mut request = tonic::Request::new(tokio_stream::wrappers::ReceiverStream::new(rx));
+        request
+            .metadata_mut()
+            .insert("authorization", format!("Bearer {SECRET}").parse().unwrap());
+        let Ok(response) = client.work(request).await else {
+            return 0;
+        };
+        let mut inbound = response.into_inner();
+        let mut taken = 0;
+        let until = tokio::time::Instant::now() + Duration::from_secs(1);
+        while taken < 64 {
+            match tokio::time::timeout_at(until, inbound.message()).await {
+                Ok(Ok(Some(m))) => {
+                    if matches!(m.kind, Some(v1::coordinator_message::Kind::Assignment(_))) {
+                        taken += 1;
+                    }
+                }
+                _ => break,
+            }
+        }
+        drop(tx);
+        taken
+    })
+}
+
+#[test]
+fn a_run_through_coordinator_kills_and_worker_faults_ends_as_run_ends_it() {
+    let (expected, expected_rows) = run_builds(FIXTURE);
+    let dir = temp_dir("chaos");
+    let db = dir.join("chaos.db");
+    let port = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let mut schedule = Schedule(0x5EED_0014);
+
+    let mut coordinator = serve(&dir, &db, port);
+    let mut spawned = 0;
+    let mut next_worker = |dir: &Path| {
+        spawned += 1;
+        worker(dir, &url, &format!("worker-{spawned}"))
+    };
+    let mut workers: Vec<Process> = (0..WORKERS).map(|_| next_worker(&dir)).collect();
+    coordinator.wait_for_line("for a worker", |l| l.contains("worker connected"), START);
+
+    // Worker events and coordinator kills, interleaved in a seeded order.
+    let mut events: Vec<bool> =
+        [vec![true; COORDINATOR_KILLS], vec![false; WORKER_EVENTS]].concat();
+    for i in (1..events.len()).rev() {
+        events.swap(i, schedule.below(i as u64 + 1) as usize);
+    }
+    let mut log = Vec::new();
+    for kill_coordinator in events {
+        std::thread::sleep(schedule.pause());
+        assert!(
+            coordinator.exited().is_none(),
+            "the run finished before the schedule did (after {log:?}): make the fixture longer\n{}",
+            coordinator.log()
+        );
+        if kill_coordinator {
+            coordinator.signal(libc::SIGKILL);
+            drop(coordinator);
+            coordinator = serve(&dir, &db, port);
+            log.push("coordinator SIGKILL".to_string());
+            continue;
+        }
+        let w = schedule.below(WORKERS as u64) as usize;
+        match schedule.below(4) {
+            0 => {
+                workers[w].signal(libc::SIGKILL);
+                workers[w] = next_worker(&dir);
+                log.push(format!("worker {w} SIGKILL"));
+            }
+            1 => {
+                workers[w].signal(libc::SIGTERM);
+                let status = workers[w].wait_exit(START);
+                assert!(status.success(), "{}", workers[w].log());
+                workers[w] = next_worker(&dir);
+                log.push(format!("worker {w} SIGTERM"));
+            }
+            2 => {
+                // Past the 1 s lease: its leases expire and go to the others.
+                workers[w].signal(libc::SIGSTOP);
+                std::thread::sleep(Duration::from_millis(1500));
+                workers[w].signal(libc::SIGCONT);
+                log.push(format!("worker {w} SIGSTOP 1.5 s"));
+            }
+            _ => {
+                let taken = lease_and_drop(&rt, &url);
+                log.push(format!("{taken} leases taken and dropped"));
+            }
+        }
+    }
+    eprintln!("chaos schedule: {log:?}");
+
+    let status = coordinator.wait_exit(FINISH);
+    assert!(
+        status.success(),
+        "coordinator failed:\n{}",
+        coordinator.log()
+    );
+    for w in &mut workers {
+        // A worker stopped last may still be reconnecting; every one exits by itself.
+        assert!(w.wait_exit(START).success(), "{}", w.log());
+    }
+    let rows = candidate_rows(&db);
+    assert!(
+        !rows.contains("evaluation_failed"),
+        "a candidate failed for want of a worker"
+    );
+    assert_same_library(&export(&db), &expected);
+    if rows != expected_rows {
+        let first = rows
+            .lines()
+            .zip(expected_rows.lines())
+            .find(|(a, b)| a != b);
+        panic!(
+            "the candidates differ from run's ({} rows against {}); first difference:\n{first:?}",
+            rows.lines().count(),
+            expected_rows.lines().count()
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
