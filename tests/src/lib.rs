@@ -147,9 +147,14 @@ pub fn run_builds(experiment: &str) -> (serde_json::Value, String) {
 /// the sqlite3 shell prints them (`.ci/run` installs it): equal for two databases
 /// exactly when every candidate was drawn, evaluated and placed alike.
 pub fn candidate_rows(db: &std::path::Path) -> String {
+    sqlite(db, "SELECT * FROM candidates ORDER BY run_id, number")
+}
+
+/// What the sqlite3 shell prints for `sql` on `db` (`.ci/run` installs it).
+pub fn sqlite(db: &std::path::Path, sql: &str) -> String {
     let out = Command::new("sqlite3")
         .arg(db)
-        .arg("SELECT * FROM candidates ORDER BY run_id, number")
+        .arg(sql)
         .output()
         .expect("sqlite3 is installed (.ci/run installs it)");
     assert!(

@@ -1,6 +1,7 @@
 //! Bad callers get a clear gRPC error and change nothing: no secret or a wrong one, another
-//! protocol version, a NaN fitness, a candidate nobody leased them, another run's
-//! candidate. A raw client speaks the protocol here, as a broken or hostile worker would.
+//! protocol version, a NaN fitness, a message over the size limit, a candidate nobody
+//! leased them, another run's candidate. A raw client speaks the protocol here, as a
+//! broken or hostile worker would.
 
 use std::path::Path;
 use std::process::Command;
@@ -233,6 +234,19 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
         let s = refused(st, a.id.unwrap(), nan).await;
         assert_eq!(s.code(), Code::InvalidArgument);
         assert!(s.message().contains("fitness"), "{}", s.message());
+
+        // A message over the size limit (1 MiB): refused with the reason, not an OK end.
+        let (st, a) = assigned(&channel).await;
+        let mut huge = real_outcome(&a);
+        huge.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
+            fitness: 1.0,
+            stats: Some(v1::TrialStats::default()),
+            features: vec![0.5; 200_000],
+            cell: 0,
+        }));
+        let s = refused(st, a.id.unwrap(), huge).await;
+        assert_eq!(s.code(), Code::ResourceExhausted);
+        assert!(s.message().contains("too large"), "{}", s.message());
 
         // A candidate nobody leased to this worker.
         let (st, a) = assigned(&channel).await;

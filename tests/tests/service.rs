@@ -186,6 +186,17 @@ fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
     for w in &mut ws {
         assert!(w.wait_exit(START).success(), "{}", w.log());
     }
+    // The sessions the killed coordinators left open were closed, with the reason.
+    let open = strider_tests::sqlite(
+        &db,
+        "SELECT COUNT(*) FROM workers WHERE disconnected_at IS NULL OR left_because IS NULL",
+    );
+    assert_eq!(open.trim(), "0");
+    let closed = strider_tests::sqlite(
+        &db,
+        "SELECT COUNT(*) FROM workers WHERE left_because LIKE 'the coordinator stopped first%'",
+    );
+    assert!(closed.trim().parse::<u32>().unwrap() >= 2, "{closed}");
     assert_same_library(&export(&db), expected);
     assert_eq!(integrity(&db), "ok");
     std::fs::remove_dir_all(&dir).unwrap();

@@ -525,6 +525,20 @@ impl Db {
             .collect()
     }
 
+    /// Closes the worker sessions a coordinator that stopped without ending them (killed,
+    /// its node lost) left open: their end is recorded as this start, with the reason.
+    /// Returns how many.
+    pub async fn close_sessions_left_open(&self) -> Result<u64, DbError> {
+        let done = sqlx::query(
+            "UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), \
+             left_because = 'the coordinator stopped first (closed when it started again)' \
+             WHERE disconnected_at IS NULL",
+        )
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected())
+    }
+
     /// The id the next worker session gets (ids are never reused, across restarts too).
     pub async fn next_worker_id(&self) -> Result<u64, DbError> {
         let max: Option<i64> = sqlx::query("SELECT MAX(id) FROM workers")

@@ -12,8 +12,8 @@ pub mod writer;
 
 use crate::scheduler::Scheduler;
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicU32, AtomicU64};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use tokio::sync::{mpsc, watch, Notify};
 use writer::WriterMessage;
@@ -57,10 +57,54 @@ impl Throughput {
     }
 }
 
+/// Most changes handed to the writer and not yet committed. While more are queued,
+/// worker sessions stop reading results (HTTP/2 flow control then holds the workers
+/// back), so the writer's queue, the coordinator's memory and what a crash can lose stay
+/// bounded whatever the workers' pace: at most this many results are redone after a
+/// SIGKILL.
+pub const MAX_BACKLOG: usize = 16384;
+
+/// Changes handed to the writer and not yet committed.
+#[derive(Default)]
+pub struct Backlog {
+    writes: AtomicUsize,
+    drained: Notify,
+}
+
+impl Backlog {
+    /// `n` changes were queued.
+    fn queued(&self, n: usize) {
+        self.writes.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// `n` changes were committed: sessions waiting for room go on.
+    pub fn committed(&self, n: usize) {
+        self.writes.fetch_sub(n, Ordering::Relaxed);
+        self.drained.notify_waiters();
+    }
+
+    /// Changes queued and not committed now.
+    pub fn len(&self) -> usize {
+        self.writes.load(Ordering::Relaxed)
+    }
+
+    /// Whether nothing is waiting to be committed.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Whether sessions should wait before taking more results.
+    pub fn full(&self) -> bool {
+        self.len() >= MAX_BACKLOG
+    }
+}
+
 /// What every connection shares.
 pub struct Shared {
     scheduler: Mutex<Scheduler>,
     writer: mpsc::UnboundedSender<WriterMessage>,
+    /// What the writer holds uncommitted (bounded by sessions waiting on it).
+    backlog: Arc<Backlog>,
     /// Woken when candidates may have become available.
     work: Notify,
     /// Steps completed (generations), for progress watchers.
@@ -82,11 +126,7 @@ impl Shared {
     pub fn with<R>(&self, wake: bool, f: impl FnOnce(&mut Scheduler) -> R) -> R {
         let mut s = self.scheduler.lock().expect("no panic while scheduling");
         let out = f(&mut s);
-        let writes = s.take_writes();
-        if !writes.is_empty() {
-            // The writer only stops when the service does.
-            let _ = self.writer.send(WriterMessage::Writes(writes));
-        }
+        self.write(s.take_writes());
         let steps = s.steps_applied();
         self.steps
             .send_if_modified(|v| std::mem::replace(v, steps) != steps);
@@ -99,6 +139,16 @@ impl Shared {
             self.work.notify_waiters();
         }
         out
+    }
+
+    /// Hands changes to the writer, in order, counting them in the backlog.
+    pub fn write(&self, writes: Vec<crate::db::Write>) {
+        if writes.is_empty() {
+            return;
+        }
+        self.backlog.queued(writes.len());
+        // The writer only stops when the service does.
+        let _ = self.writer.send(WriterMessage::Writes(writes));
     }
 
     /// Results accepted since the service started.

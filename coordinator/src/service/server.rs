@@ -114,6 +114,10 @@ pub async fn serve(
     let runs = db.runs().await?;
     let stored = db.pending().await?;
     let next_worker = db.next_worker_id().await?;
+    let left_open = db.close_sessions_left_open().await?;
+    if left_open > 0 {
+        tracing::info!("{left_open} worker sessions of a coordinator that stopped first closed");
+    }
     let scheduler = Scheduler::new(
         experiment.clone(),
         runs,
@@ -122,10 +126,12 @@ pub async fn serve(
         opts.max_attempts,
     );
     let (writer_tx, writer_rx) = mpsc::unbounded_channel();
-    let mut writer = tokio::spawn(run_writer(db.clone(), writer_rx));
+    let backlog = Arc::new(super::Backlog::default());
+    let mut writer = tokio::spawn(run_writer(db.clone(), writer_rx, backlog.clone()));
     let shared = Arc::new(Shared {
         scheduler: Mutex::new(scheduler),
         writer: writer_tx,
+        backlog,
         work: Notify::new(),
         steps: watch::Sender::new(0),
         finished: watch::Sender::new(false),

@@ -102,14 +102,12 @@ impl WorkerService for WorkerApi {
         })))
         .await
         .map_err(|_| Status::cancelled("the worker went away"))?;
-        let _ = shared
-            .writer
-            .send(super::WriterMessage::Writes(vec![Write::WorkerJoined {
-                id: id.0,
-                name: hello.worker_name.clone(),
-                build: hello.build.clone(),
-                slots: hello.slots,
-            }]));
+        shared.write(vec![Write::WorkerJoined {
+            id: id.0,
+            name: hello.worker_name.clone(),
+            build: hello.build.clone(),
+            slots: hello.slots,
+        }]);
         shared.workers.fetch_add(1, Ordering::Relaxed);
         tracing::info!(worker = id.0, name = %hello.worker_name, slots = hello.slots, "worker connected");
         let session = Session {
@@ -158,11 +156,18 @@ impl Session {
             let work = shared.work.notified();
             tokio::pin!(work);
             work.as_mut().enable();
+            // Registered before the check, so a commit in between is not missed.
+            let drained = shared.backlog.drained.notified();
+            tokio::pin!(drained);
+            drained.as_mut().enable();
+            let backlogged = shared.backlog.full();
             if let Err(reason) = self.top_up().await {
                 break reason;
             }
             tokio::select! {
-                m = inbound.message() => match m {
+                // The writer is behind: take no more results until it catches up.
+                _ = &mut drained, if backlogged => {}
+                m = inbound.message(), if !backlogged => match m {
                     Ok(Some(m)) => {
                         if let Err(status) = self.handle(m) {
                             tracing::warn!(worker = self.id.0, "refused: {}", status.message());
@@ -175,6 +180,14 @@ impl Session {
                         }
                     }
                     Ok(None) => break "the worker closed its stream".into(),
+                    // tonic reports a message over the size limit as OUT_OF_RANGE on our
+                    // side and would end the stream with OK: tell the worker why.
+                    Err(e) if e.code() == tonic::Code::OutOfRange => {
+                        let why = format!("message too large: {}", e.message());
+                        tracing::warn!(worker = self.id.0, "refused: {why}");
+                        let _ = self.tx.send(Err(Status::resource_exhausted(why.clone()))).await;
+                        break format!("refused: {why}");
+                    }
                     Err(e) => break format!("stream error: {}", e.message()),
                 },
                 _ = &mut work => {}
@@ -185,14 +198,11 @@ impl Session {
         let why = reason.clone();
         self.shared.with(true, |s| s.disconnect(self.id, &why));
         self.shared.workers.fetch_sub(1, Ordering::Relaxed);
-        let _ = self
-            .shared
-            .writer
-            .send(super::WriterMessage::Writes(vec![Write::WorkerLeft {
-                id: self.id.0,
-                results: self.results,
-                reason: reason.clone(),
-            }]));
+        self.shared.write(vec![Write::WorkerLeft {
+            id: self.id.0,
+            results: self.results,
+            reason: reason.clone(),
+        }]);
         tracing::info!(
             worker = self.id.0,
             results = self.results,

@@ -2,13 +2,15 @@
 //! scheduler's changes in order and commits whatever has queued up in one transaction, so
 //! commits stay durable (full sync) and cheap per result however fast results arrive.
 //!
-//! A group stays open for [`GROUP_WINDOW`] after its first change (or until it is full, or
-//! someone waits for a flush): a result arriving in that window is work in flight, which a
+//! A group stays open for [`GROUP_WINDOW`] after its first change (or until it is full,
+//! someone waits for a flush, or the backlog reaches [`super::MAX_BACKLOG`]): a result arriving in that window is work in flight, which a
 //! crash may lose and a worker then redoes; a committed one is never lost. Without the
 //! window a slow stream of results paid one fsync each (about 150 commits/s in a local
 //! run, each waking the writer, SQLite's thread and the kernel beside the simulations).
 
+use super::Backlog;
 use crate::db::{Db, DbError, PreparedGroup, Write};
+use std::sync::Arc;
 use tokio::sync::{mpsc, oneshot};
 
 /// Most writes in one transaction (bounds a group's latency).
@@ -30,9 +32,10 @@ pub enum WriterMessage {
 pub async fn run_writer(
     db: Db,
     mut rx: mpsc::UnboundedReceiver<WriterMessage>,
+    backlog: Arc<Backlog>,
 ) -> Result<(), DbError> {
     let checkpointer = tokio::spawn(checkpoint_continually(db.clone()));
-    let result = write_groups(&db, &mut rx).await;
+    let result = write_groups(&db, &mut rx, &backlog).await;
     checkpointer.abort();
     result?;
     // Leave a tidy file: everything in the database, an empty log.
@@ -57,6 +60,8 @@ async fn checkpoint_continually(db: Db) {
 /// A prepared group on its way to the committer, with the flushes waiting for it.
 struct Ready {
     group: Option<PreparedGroup>,
+    /// Changes it holds, as counted in the backlog.
+    changes: usize,
     flushes: Vec<oneshot::Sender<()>>,
 }
 
@@ -69,10 +74,16 @@ const PREPARE_INLINE: usize = 64;
 async fn write_groups(
     db: &Db,
     rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
+    backlog: &Backlog,
 ) -> Result<(), DbError> {
     let (ready_tx, mut ready_rx) = mpsc::channel::<Ready>(1);
     let commit = async {
-        while let Some(Ready { group, flushes }) = ready_rx.recv().await {
+        while let Some(Ready {
+            group,
+            changes,
+            flushes,
+        }) = ready_rx.recv().await
+        {
             if let Some(group) = group {
                 let started = std::time::Instant::now();
                 let writes = group.writes();
@@ -83,6 +94,7 @@ async fn write_groups(
                     "group committed"
                 );
             }
+            backlog.committed(changes);
             for done in flushes {
                 let _ = done.send(());
             }
@@ -90,7 +102,8 @@ async fn write_groups(
         Ok::<(), DbError>(())
     };
     let prepare = async move {
-        while let Some((writes, flushes)) = collect_group(rx).await {
+        while let Some((writes, flushes)) = collect_group(rx, backlog).await {
+            let changes = writes.len();
             let group = match writes.len() {
                 0 => None,
                 n if n < PREPARE_INLINE => Some(PreparedGroup::new(&writes)),
@@ -100,7 +113,15 @@ async fn write_groups(
                         .expect("preparing a group does not panic"),
                 ),
             };
-            if ready_tx.send(Ready { group, flushes }).await.is_err() {
+            if ready_tx
+                .send(Ready {
+                    group,
+                    changes,
+                    flushes,
+                })
+                .await
+                .is_err()
+            {
                 // The committer failed; its error is the one reported.
                 break;
             }
@@ -113,10 +134,12 @@ async fn write_groups(
 }
 
 /// The next group: everything queued, then whatever comes within [`GROUP_WINDOW`] of its
-/// first change, up to [`MAX_GROUP`] writes or the first flush. `None` once every sender
-/// is gone and nothing is left.
+/// first change, up to [`MAX_GROUP`] writes, the first flush, or a full backlog (the
+/// sessions then wait for this commit: waiting out the window would stall them).
+/// `None` once every sender is gone and nothing is left.
 async fn collect_group(
     rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
+    backlog: &Backlog,
 ) -> Option<(Vec<Write>, Vec<oneshot::Sender<()>>)> {
     let first = rx.recv().await?;
     let close_at = tokio::time::Instant::now() + GROUP_WINDOW;
@@ -127,7 +150,7 @@ async fn collect_group(
             WriterMessage::Writes(w) => group.extend(w),
             WriterMessage::Flush(done) => flushes.push(done),
         }
-        next = if group.len() >= MAX_GROUP || !flushes.is_empty() {
+        next = if group.len() >= MAX_GROUP || !flushes.is_empty() || backlog.full() {
             None
         } else if let Ok(m) = rx.try_recv() {
             Some(m)
