@@ -5,8 +5,9 @@ grpc-tools): the integration test generates the stubs into STUBS_DIR with
 strider/v1/strider.proto`, then runs this script.
 
 Usage: python_client.py STUBS_DIR URL SECRET
-Prints one JSON object: the progress, the first page of elites, one elite whole, and
-what a call without the secret got.
+Prints one JSON object: the progress, the first page of elites, the same elites read
+two at a time with page tokens, one elite whole, what a call without the secret got, and
+what a forged page token and a token reused with another page size got.
 """
 
 import json
@@ -30,6 +31,44 @@ page = client.ListElites(
         protocol_version=1, run=wrappers_pb2.UInt32Value(value=0), page_size=1000
     ),
     metadata=auth,
+)
+paged = []
+token = ""
+while True:
+    p = client.ListElites(
+        pb.ListElitesRequest(
+            protocol_version=1,
+            run=wrappers_pb2.UInt32Value(value=0),
+            page_size=2,
+            page_token=token,
+        ),
+        metadata=auth,
+    )
+    paged.extend(p.elites)
+    if not p.next_page_token:
+        break
+    token = p.next_page_token
+    issued = token
+
+
+def refusal(request):
+    try:
+        client.ListElites(request, metadata=auth)
+        return "OK"
+    except grpc.RpcError as e:
+        return e.code().name
+
+
+forged = refusal(
+    pb.ListElitesRequest(protocol_version=1, page_token="18446744073709551615")
+)
+reused = refusal(
+    pb.ListElitesRequest(
+        protocol_version=1,
+        run=wrappers_pb2.UInt32Value(value=0),
+        page_size=3,
+        page_token=issued,
+    )
 )
 best = page.elites[0]
 elite = client.GetElite(
@@ -60,6 +99,12 @@ print(
                 "controller": len(elite.genome.controller),
                 "kind": elite.outcome.WhichOneof("kind"),
             },
+            "paged": [
+                {"run": e.run, "cell": e.cell, "candidate": e.candidate, "fitness": e.fitness}
+                for e in paged
+            ],
+            "forged_token": forged,
+            "reused_token": reused,
             "without_secret": without_secret,
         }
     )

@@ -155,6 +155,11 @@ fn status_and_a_generated_python_client_read_progress_and_elites() {
     let py: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(py["experiment"], "service");
     assert_eq!(py["without_secret"], "UNAUTHENTICATED");
+    // Paging two at a time with the tokens it is given reads the same elites; a token it
+    // was never given, or one issued for another page size, is refused.
+    assert_eq!(py["paged"], py["elites"]);
+    assert_eq!(py["forged_token"], "INVALID_ARGUMENT");
+    assert_eq!(py["reused_token"], "INVALID_ARGUMENT");
     let run0 = &exported["runs"][0]["elites"];
     assert_eq!(
         py["elites"].as_array().unwrap().len(),

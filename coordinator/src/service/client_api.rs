@@ -3,6 +3,7 @@
 
 use super::Shared;
 use crate::db::{EliteFilter, StoredElite};
+use std::hash::{BuildHasher, Hash, Hasher};
 use std::pin::Pin;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -27,6 +28,47 @@ fn check_version(v: u32) -> Result<(), Status> {
         Err(Status::failed_precondition(format!(
             "protocol version mismatch: the client speaks version {v}, this coordinator version {PROTOCOL_VERSION}"
         )))
+    }
+}
+
+/// Page tokens: the next page's offset and a tag, a hash keyed per coordinator process of
+/// the offset and the request's filter, so that a token this process did not issue for
+/// this query (forged, edited, or from another query) is refused, as AIP-158 asks. A
+/// restarted coordinator refuses the old process's tokens: list again from the start.
+fn page_key() -> &'static std::collections::hash_map::RandomState {
+    static KEY: std::sync::OnceLock<std::collections::hash_map::RandomState> =
+        std::sync::OnceLock::new();
+    KEY.get_or_init(Default::default)
+}
+
+fn page_tag(offset: u64, filter: &EliteFilter, size: u32) -> u64 {
+    let mut h = page_key().build_hasher();
+    offset.hash(&mut h);
+    filter.run.hash(&mut h);
+    filter.cell.hash(&mut h);
+    filter.min_fitness.map(f64::to_bits).hash(&mut h);
+    size.hash(&mut h);
+    h.finish()
+}
+
+fn page_token(offset: u64, filter: &EliteFilter, size: u32) -> String {
+    format!("{offset:x}.{:016x}", page_tag(offset, filter, size))
+}
+
+fn page_offset(token: &str, filter: &EliteFilter, size: u32) -> Result<u64, Status> {
+    let refused = || {
+        Status::invalid_argument(format!(
+            "page_token: {token:?} is not a token this coordinator issued for this query \
+             (tokens hold for one coordinator process and one set of filters and page size)"
+        ))
+    };
+    let (offset, tag) = token.split_once('.').ok_or_else(refused)?;
+    let offset = u64::from_str_radix(offset, 16).map_err(|_| refused())?;
+    let tag = u64::from_str_radix(tag, 16).map_err(|_| refused())?;
+    if tag == page_tag(offset, filter, size) {
+        Ok(offset)
+    } else {
+        Err(refused())
     }
 }
 
@@ -150,16 +192,6 @@ impl ClientService for ClientApi {
                 )))
             }
         };
-        let offset: u64 = if r.page_token.is_empty() {
-            0
-        } else {
-            r.page_token.parse().map_err(|_| {
-                Status::invalid_argument(format!(
-                    "page_token: {:?} is not a token this coordinator issued",
-                    r.page_token
-                ))
-            })?
-        };
         if let Some(f) = r.min_fitness {
             if !f.is_finite() {
                 return Err(Status::invalid_argument(format!(
@@ -172,6 +204,11 @@ impl ClientService for ClientApi {
             cell: r.cell.map(i64::from),
             min_fitness: r.min_fitness,
         };
+        let offset = if r.page_token.is_empty() {
+            0
+        } else {
+            page_offset(&r.page_token, &filter, size)?
+        };
         // One more than asked, to know whether another page follows.
         let mut rows = self
             .shared
@@ -183,7 +220,7 @@ impl ClientService for ClientApi {
         rows.truncate(size as usize);
         Ok(Response::new(v1::ListElitesResponse {
             next_page_token: if more {
-                (offset + u64::from(size)).to_string()
+                page_token(offset + u64::from(size), &filter, size)
             } else {
                 String::new()
             },
