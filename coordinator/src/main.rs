@@ -22,6 +22,7 @@ use strider_coordinator::report::{png, Inputs, RunData};
 use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
 use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
+use strider_proto::process::{error_text, UsageError, EXIT_FAILURE, EXIT_USAGE};
 use strider_worker::batch::default_threads;
 use strider_worker::cli::closed_pipe;
 
@@ -183,8 +184,12 @@ fn main() -> ExitCode {
         // `export ... | head`: the reader had enough; not an error.
         Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(2)
+            eprintln!("error: {}", error_text(e.as_ref()));
+            ExitCode::from(if e.is::<UsageError>() {
+                EXIT_USAGE
+            } else {
+                EXIT_FAILURE
+            })
         }
     }
 }
@@ -209,21 +214,15 @@ fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
         .context("starting the async runtime")
 }
 
-fn init_logs() {
-    // RUST_LOG (or STRIDER_LOG) sets the level; info by default.
-    let filter = tracing_subscriber::EnvFilter::try_from_env("STRIDER_LOG")
-        .or_else(|_| tracing_subscriber::EnvFilter::try_from_default_env())
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .try_init();
+fn init_logs() -> anyhow::Result<()> {
+    strider_proto::process::init_logs().map_err(|e| UsageError(e).into())
 }
 
 fn seconds(name: &str, s: f64) -> anyhow::Result<Duration> {
     if !(s.is_finite() && s > 0.0) {
-        bail!("--{name}: {s} is not a positive number of seconds");
+        return Err(
+            UsageError(format!("--{name}: {s} is not a positive number of seconds")).into(),
+        );
     }
     Ok(Duration::from_secs_f64(s))
 }
@@ -251,7 +250,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             workers,
             progress_every,
         } => {
-            init_logs();
+            init_logs()?;
             let every = seconds("progress-every", progress_every)?;
             local_runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers, every))
         }
@@ -270,10 +269,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             backup,
             backup_every,
         } => {
-            init_logs();
+            init_logs()?;
             let secret = Secret::load(token_file.as_deref())?;
             if max_attempts == 0 {
-                bail!("--max-attempts: must be at least 1");
+                return Err(UsageError("--max-attempts: must be at least 1".into()).into());
             }
             let opts = ServeOptions {
                 lease: seconds("lease-seconds", lease_seconds)?,
@@ -288,7 +287,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 backup: match backup {
                     Some(path) => {
                         if same_file(&path, &db) {
-                            bail!("--backup {}: that is the database itself", path.display());
+                            return Err(UsageError(format!(
+                                "--backup {}: that is the database itself",
+                                path.display()
+                            ))
+                            .into());
                         }
                         Some(Backup {
                             path,

@@ -112,7 +112,7 @@ fn a_different_experiment_on_an_existing_database_is_refused() {
         "strider-coordinator",
         &["run", other.to_str().unwrap(), "--db", db.to_str().unwrap()],
     );
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("run.generations: 12 in the database, 13 given"),

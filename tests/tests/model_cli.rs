@@ -61,7 +61,7 @@ fn inspect_names_a_missing_parameter() {
         .unwrap()
         .remove("wall_thickness");
     let (code, err) = inspect_text("missing.json", &g.to_string());
-    assert_eq!(code, 2);
+    assert_eq!(code, 1, "a file that does not load is a runtime error");
     assert!(
         err.contains("missing morphology parameter(s): wall_thickness"),
         "{err}"
@@ -73,7 +73,7 @@ fn inspect_names_an_out_of_range_value() {
     let mut g = max_json();
     g["morphology"]["legs_per_side"] = serde_json::json!(9);
     let (code, err) = inspect_text("range.json", &g.to_string());
-    assert_eq!(code, 2);
+    assert_eq!(code, 1, "a file that does not load is a runtime error");
     assert!(
         err.contains("`legs_per_side` = 9 is outside its range [2, 6]"),
         "{err}"
@@ -85,7 +85,7 @@ fn inspect_names_a_wrong_type() {
     let mut g = max_json();
     g["morphology"]["motor0_damping"] = serde_json::json!(true);
     let (code, err) = inspect_text("type.json", &g.to_string());
-    assert_eq!(code, 2);
+    assert_eq!(code, 1, "a file that does not load is a runtime error");
     assert!(
         err.contains("`motor0_damping` must be a number, found boolean true"),
         "{err}"
@@ -110,7 +110,7 @@ fn inspect_names_a_nan() {
         text.push_str(&format!("{k} = {v}\n"));
     }
     let (code, err) = inspect_text("nan.toml", &text);
-    assert_eq!(code, 2);
+    assert_eq!(code, 1, "a file that does not load is a runtime error");
     assert!(err.contains("`link2_width` is NaN"), "{err}");
 }
 
@@ -120,12 +120,14 @@ fn inspect_reports_an_unreadable_file() {
         "strider-worker",
         &["inspect", "designs/does-not-exist.json"],
     );
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("cannot read genome file designs/does-not-exist.json"),
         "{err}"
     );
+    // The cause once, not once per level of the error chain.
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
 }
 
 #[test]
@@ -148,7 +150,7 @@ fn check_refuses_a_bad_experiment_by_field() {
         "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[run]\ncontrol_hz = 0.0\n",
     );
     let out = run("strider-coordinator", &["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("`run.control_hz` is 0; allowed: 1 to 1000"),
@@ -198,5 +200,30 @@ fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.code(), Some(0), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_log_filter_that_does_not_parse_is_a_usage_error_naming_the_variable() {
+    let dir = strider_tests::temp_dir("bad-log-filter");
+    let db = dir.join("x.db");
+    let out = std::process::Command::new(strider_tests::binary("strider-coordinator"))
+        .args([
+            "run",
+            "tests/fixtures/service.toml",
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .env("STRIDER_LOG", "info,[[[")
+        .current_dir(strider_tests::workspace_root())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("STRIDER_LOG") && err.contains("not a log filter"),
+        "{err}"
+    );
+    assert!(!db.exists(), "nothing ran");
     std::fs::remove_dir_all(&dir).unwrap();
 }

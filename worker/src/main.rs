@@ -13,6 +13,7 @@ use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::StartPose;
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
+use strider_proto::process::{error_text, UsageError, EXIT_FAILURE, EXIT_USAGE};
 use strider_worker::batch::default_threads;
 use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
@@ -169,8 +170,12 @@ fn main() -> ExitCode {
         // `survey | head`: the reader had enough; not an error.
         Err(e) if strider_worker::cli::closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(2)
+            eprintln!("error: {}", error_text(e.as_ref()));
+            ExitCode::from(if e.is::<UsageError>() {
+                EXIT_USAGE
+            } else {
+                EXIT_FAILURE
+            })
         }
     }
 }
@@ -199,19 +204,14 @@ fn load_secret(file: Option<&Path>) -> anyhow::Result<Option<String>> {
 }
 
 fn connect(args: ConnectArgs, coordinator: CoordinatorAddress) -> anyhow::Result<()> {
-    let filter = tracing_subscriber::EnvFilter::try_from_env("STRIDER_LOG")
-        .or_else(|_| tracing_subscriber::EnvFilter::try_from_default_env())
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .try_init();
-    anyhow::ensure!(
-        args.drain_seconds.is_finite() && args.drain_seconds >= 0.0,
-        "--drain-seconds: {} is not a number of seconds",
-        args.drain_seconds
-    );
+    strider_proto::process::init_logs().map_err(UsageError)?;
+    if !(args.drain_seconds.is_finite() && args.drain_seconds >= 0.0) {
+        return Err(UsageError(format!(
+            "--drain-seconds: {} is not a number of seconds",
+            args.drain_seconds
+        ))
+        .into());
+    }
     let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
         .map(|h| h.trim().to_string())
         .unwrap_or_else(|_| "localhost".into());
@@ -260,9 +260,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         let coordinator = match (&cli.connect.connect, &cli.connect.address_file) {
             (Some(url), _) => CoordinatorAddress::Url(url.clone()),
             (None, Some(file)) => CoordinatorAddress::File(file.clone()),
-            (None, None) => anyhow::bail!(
-                "nothing to do: pass --connect URL or --address-file FILE, or a command (see --help)"
-            ),
+            (None, None) => {
+                return Err(UsageError(
+                    "nothing to do: pass --connect URL or --address-file FILE, or a command (see --help)"
+                        .into(),
+                )
+                .into())
+            }
         };
         return connect(cli.connect, coordinator);
     };

@@ -34,7 +34,7 @@ pub fn render(p: &v1::Progress, results_total: u64) -> String {
             |r| f64::from(r.generation),
         ),
         (
-            "run_trials_done",
+            "run_trials_done_total",
             "counter",
             "Candidates of the run evaluated.",
             |r| r.trials_done as f64,

@@ -1,0 +1,69 @@
+//! Process plumbing both binaries share: the log setup and the exit status of an error.
+
+/// A command line that cannot run as given (a flag out of range, a bad log filter): exits
+/// 2, as clap's own usage errors do. Every other error (a file that does not load, a
+/// database, the network) exits 1.
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// An error and its causes on one line, each cause once: a cause whose text the message
+/// already holds (thiserror messages that quote their source, SQLite's text wrapped at
+/// three levels) is not printed again.
+pub fn error_text(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let c_text = c.to_string();
+        if !text.contains(&c_text) {
+            text.push_str(": ");
+            text.push_str(&c_text);
+        }
+        cause = c.source();
+    }
+    text
+}
+
+/// Exit status of a usage error.
+pub const EXIT_USAGE: u8 = 2;
+/// Exit status of any other error.
+pub const EXIT_FAILURE: u8 = 1;
+
+/// Crates whose debug output is wire frames, not Strider's story: kept at `info` unless
+/// the filter names them (`STRIDER_LOG=debug` was 2,200 lines of h2 frames per run).
+const QUIET: [&str; 4] = ["h2", "hyper", "hyper_util", "tower"];
+
+/// Logs to stderr at the level `STRIDER_LOG` (else `RUST_LOG`, else `info`) sets, in
+/// colour only on a terminal and without `NO_COLOR` (no-color.org). A filter that does
+/// not parse is an error naming the variable, not silently `info`.
+pub fn init_logs() -> Result<(), String> {
+    let (var, text) = match (std::env::var("STRIDER_LOG"), std::env::var("RUST_LOG")) {
+        (Ok(s), _) => ("STRIDER_LOG", s),
+        (Err(_), Ok(r)) => ("RUST_LOG", r),
+        _ => ("", "info".to_string()),
+    };
+    let mut directives = text.clone();
+    for q in QUIET {
+        if !text.contains(q) {
+            directives.push_str(&format!(",{q}=info"));
+        }
+    }
+    let filter = tracing_subscriber::EnvFilter::builder()
+        .parse(&directives)
+        .map_err(|e| format!("{var}: {text:?} is not a log filter ({e}); try info, debug or strider_coordinator=debug"))?;
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr())
+        && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(colour)
+        .try_init();
+    Ok(())
+}
