@@ -227,18 +227,26 @@ fn seconds(name: &str, s: f64) -> anyhow::Result<Duration> {
     Ok(Duration::from_secs_f64(s))
 }
 
+/// The signal that asked the process to stop (0 before one came).
+static STOPPED_BY: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
+
+/// Completes on SIGTERM or Ctrl-C (SIGINT), noting which in [`STOPPED_BY`].
 async fn stop_signal() {
     #[cfg(unix)]
     {
         use tokio::signal::unix::{signal, SignalKind};
         let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-        tokio::select! {
-            _ = term.recv() => {}
-            _ = tokio::signal::ctrl_c() => {}
-        }
+        let sig = tokio::select! {
+            _ = term.recv() => 15,
+            _ = tokio::signal::ctrl_c() => 2,
+        };
+        STOPPED_BY.store(sig, std::sync::atomic::Ordering::Relaxed);
     }
     #[cfg(not(unix))]
-    let _ = tokio::signal::ctrl_c().await;
+    {
+        let _ = tokio::signal::ctrl_c().await;
+        STOPPED_BY.store(2, std::sync::atomic::Ordering::Relaxed);
+    }
     tracing::info!("asked to stop: committing and shutting down");
 }
 
@@ -252,7 +260,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         } => {
             init_logs()?;
             let every = seconds("progress-every", progress_every)?;
-            local_runtime()?.block_on(run_locally(experiment.as_deref(), &db, workers, every))
+            return local_runtime()?.block_on(run_locally(
+                experiment.as_deref(),
+                &db,
+                workers,
+                every,
+            ));
         }
         Command::Serve {
             db,
@@ -409,16 +422,38 @@ async fn run_locally(
     path: &Path,
     workers: Option<NonZeroUsize>,
     progress_every: Duration,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<ExitCode> {
     let (db, experiment) = open_or_create(file, path, true).await?;
     let threads = workers.unwrap_or_else(default_threads);
-    run_local(db, experiment.clone(), threads, progress_every).await?;
-    eprintln!(
-        "experiment `{}` finished: `strider-coordinator export --db {}` writes the library",
-        experiment.name,
-        path.display()
-    );
-    Ok(())
+    match run_local(
+        db,
+        experiment.clone(),
+        threads,
+        progress_every,
+        stop_signal(),
+    )
+    .await?
+    {
+        Ended::Finished => {
+            eprintln!(
+                "experiment `{}` finished: `strider-coordinator export --db {}` writes the library",
+                experiment.name,
+                path.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Ended::AskedToStop | Ended::OutOfTime => {
+            // Told apart from a finished run by word and by status (128 + the signal, as
+            // a shell reports a process the signal ended).
+            let sig = STOPPED_BY.load(std::sync::atomic::Ordering::Relaxed);
+            eprintln!(
+                "experiment `{}` stopped before the end; everything done is committed: `strider-coordinator run --db {}` goes on from there",
+                experiment.name,
+                path.display()
+            );
+            Ok(ExitCode::from(128 + sig.clamp(0, 127) as u8))
+        }
+    }
 }
 
 async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {

@@ -292,3 +292,46 @@ fn the_papers_method_places_only_designs_that_meet_the_brief() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn ctrl_c_and_sigterm_stop_run_honestly_and_the_next_run_finishes_the_same_library() {
+    let expected = strider_tests::library_run_builds("tests/fixtures/service.toml");
+    let dir = temp_dir("local-stops");
+    let db = dir.join("stopped.db");
+    for (signal, status) in [(libc::SIGINT, 130), (libc::SIGTERM, 143)] {
+        // Stopped in the middle: after its first progress line, before the last generation.
+        let mark = "results/s";
+        let mut cmd = Command::new(binary("strider-coordinator"));
+        cmd.args(["run", "tests/fixtures/service.toml", "--db"])
+            .arg(&db)
+            .args(["--workers", "1", "--progress-every", "0.1"]);
+        let mut p = strider_tests::Process::spawn("run", cmd);
+        p.wait_for_line(
+            mark,
+            |l| l.contains(mark),
+            std::time::Duration::from_secs(300),
+        );
+        assert!(!p.log().contains("generation 20/20"), "{}", p.log());
+        p.signal(signal);
+        let got = p.wait_exit(std::time::Duration::from_secs(60));
+        // Not "finished", and not 0: a script can tell a stopped run from a done one.
+        assert_eq!(got.code(), Some(status), "{}", p.log());
+        assert!(p.log().contains("stopped before the end"), "{}", p.log());
+        assert!(
+            !p.log().contains("finished: `strider-coordinator export"),
+            "{}",
+            p.log()
+        );
+    }
+    let out = run(
+        "strider-coordinator",
+        &["run", "--db", db.to_str().unwrap(), "--workers", "2"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_same_library(&export(&db), &expected);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -2,7 +2,7 @@
 //! over loopback with a one-time secret, so one machine runs exactly what a cluster runs.
 
 use super::auth::Secret;
-use super::server::{serve, worker_url, ServeOptions};
+use super::server::{serve, worker_url, Ended, ServeOptions};
 use crate::db::Db;
 use std::num::NonZeroUsize;
 use std::time::Duration;
@@ -11,13 +11,15 @@ use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator
 use tokio::net::TcpListener;
 use tokio::sync::watch;
 
-/// Runs `experiment` (stored in `db`) to the end on `threads` local cores.
+/// Runs `experiment` (stored in `db`) on `threads` local cores until it is finished or
+/// `stop` completes; says which.
 pub async fn run_local(
     db: Db,
     experiment: Experiment,
     threads: NonZeroUsize,
     progress_every: Duration,
-) -> anyhow::Result<()> {
+    stop: impl std::future::Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<Ended> {
     let listener = TcpListener::bind("127.0.0.1:0").await?;
     let url = worker_url(listener.local_addr()?);
     let secret = Secret::random();
@@ -39,9 +41,6 @@ pub async fn run_local(
         progress_every: Some(progress_every),
         ..ServeOptions::default()
     };
-    let stop = async {
-        let _ = tokio::signal::ctrl_c().await;
-    };
     let served = serve(db, experiment, listener, secret, opts, stop);
     tokio::pin!(served);
     let mut worker = worker;
@@ -49,13 +48,13 @@ pub async fn run_local(
         r = &mut served => {
             let _ = stop_worker.send(true);
             let _ = worker.await;
-            r.map(|_| ())
+            r
         }
         w = &mut worker => {
             // The worker only ends by itself when refused: a bug, not a condition to wait out.
             match w {
                 Ok(Err(e)) => Err(anyhow::anyhow!("the local worker stopped: {e}")),
-                _ => served.await.map(|_| ()),
+                _ => served.await,
             }
         }
     }
