@@ -9,3 +9,4 @@ pub mod library;
 pub mod report;
 pub mod scheduler;
 pub mod service;
+pub mod verify;

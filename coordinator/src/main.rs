@@ -160,6 +160,21 @@ enum Command {
         #[arg(long)]
         run: Option<i64>,
     },
+    /// Check a database against itself: replay every run from its stored candidates (each
+    /// genome must be the one its run draws, and the libraries and positions must come out
+    /// as stored), then simulate a sample of the stored candidates again (outcomes must
+    /// match bit for bit). Exit 0 when all agree, 1 naming where they part.
+    Verify {
+        /// Database file (opened read-only; a copy or a backup will do).
+        #[arg(long)]
+        db: PathBuf,
+        /// Candidates to simulate again, spread evenly over the stored ones (0: none).
+        #[arg(long, default_value_t = 20)]
+        sample: usize,
+        /// Threads for the simulations (default: every core).
+        #[arg(long)]
+        workers: Option<NonZeroUsize>,
+    },
     /// Summarise an experiment: final figures per scheme, Mann-Whitney tests between
     /// schemes, the top designs' mean features and controllers, and the design rules.
     Analyse {
@@ -345,6 +360,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             _ => runtime()?.block_on(export(&db, run, format)),
         },
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
+        Command::Verify {
+            db,
+            sample,
+            workers,
+        } => return runtime()?.block_on(verify(&db, sample, workers)),
         Command::Report { db, out, run } => runtime()?.block_on(report(&db, &out, run)),
         Command::Check { experiment } => check(&experiment),
     };
@@ -386,6 +406,15 @@ async fn open_or_create(
                         path.display()
                     );
                 }
+            }
+            let problems = db.inconsistencies(&stored).await?;
+            if !problems.is_empty() {
+                bail!(
+                    "{} is inconsistent, so it is not resumed from: {}. `strider-coordinator verify --db {}` says more; resume from a backup, or start again",
+                    path.display(),
+                    problems.join("; "),
+                    path.display()
+                );
             }
             if build != build_id() {
                 eprintln!("warning: {} was started by {build}; this is {}: trials are bit-identical only within one build", path.display(), build_id());
@@ -713,6 +742,102 @@ async fn report(path: &Path, out: &Path, run: Option<i64>) -> anyhow::Result<()>
         report.tables.len()
     );
     Ok(())
+}
+
+async fn verify(
+    path: &Path,
+    sample: usize,
+    workers: Option<NonZeroUsize>,
+) -> anyhow::Result<ExitCode> {
+    use strider_common::rng::CandidateSeed;
+    use strider_worker::batch::{evaluate_batch, Job};
+    use strider_worker::evaluate::EvalContext;
+    let (db, experiment) = open_existing(path).await?;
+    let runs = db.runs().await?;
+    let candidates = db.candidates().await?;
+    let mut verdict = strider_coordinator::verify::replay(&experiment, &runs, &candidates);
+    outln!(
+        "replayed {} of {} stored candidates over {} runs",
+        verdict.replayed,
+        candidates.len(),
+        runs.len()
+    );
+    // Every k-th stored candidate whose outcome a worker computed (a candidate that
+    // failed for want of a worker has nothing to reproduce).
+    let eligible: Vec<&strider_coordinator::db::StoredCandidate> = candidates
+        .iter()
+        .filter(|c| {
+            !matches!(
+                c.outcome,
+                Outcome::Invalid {
+                    reason: strider_common::InvalidReason::EvaluationFailed { .. },
+                    ..
+                }
+            )
+        })
+        .collect();
+    let chosen: Vec<&strider_coordinator::db::StoredCandidate> =
+        if sample == 0 || eligible.is_empty() {
+            Vec::new()
+        } else {
+            let step = (eligible.len() as f64 / sample as f64).max(1.0);
+            (0..sample.min(eligible.len()))
+                .map(|i| eligible[(i as f64 * step) as usize])
+                .collect()
+        };
+    if !chosen.is_empty() {
+        let spec_of: HashMap<i64, strider_common::experiment::RunSpec> =
+            runs.iter().map(|r| (r.id, r.spec)).collect();
+        let mut jobs = Vec::with_capacity(chosen.len());
+        for c in &chosen {
+            let Some(spec) = spec_of.get(&c.run) else {
+                continue;
+            };
+            jobs.push(Job {
+                genome: c.genome,
+                scheme: spec.scheme,
+                seed: CandidateSeed::new(spec.seed.0, c.number.0),
+            });
+        }
+        let ctx = EvalContext::of(&experiment);
+        let threads = workers.unwrap_or_else(default_threads);
+        let outcomes = tokio::task::spawn_blocking(move || evaluate_batch(&ctx, &jobs, threads))
+            .await
+            .context("simulating the sample")?;
+        let mut differ = 0;
+        for (c, o) in chosen.iter().zip(&outcomes) {
+            let stored = serde_json::to_string(&c.outcome)?;
+            let again = serde_json::to_string(o)?;
+            if stored != again {
+                differ += 1;
+                if differ <= 5 {
+                    verdict.problems.push(format!(
+                        "run id {} candidate {}: simulated again it gives {again}, the database holds {stored}",
+                        c.run, c.number.0
+                    ));
+                }
+            }
+        }
+        outln!(
+            "simulated {} stored candidates again: {} identical, {differ} different",
+            chosen.len(),
+            chosen.len() - differ
+        );
+    }
+    if verdict.problems.is_empty() {
+        outln!("{} agrees with itself", path.display());
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for p in &verdict.problems {
+            outln!("problem: {p}");
+        }
+        eprintln!(
+            "error: {} does not agree with itself ({} problems above); resume from a backup, or start the experiment again",
+            path.display(),
+            verdict.problems.len()
+        );
+        Ok(ExitCode::from(EXIT_FAILURE))
+    }
 }
 
 async fn analyse(path: &Path) -> anyhow::Result<()> {

@@ -230,6 +230,36 @@ pub struct StoredPending {
     pub outcome: Option<Outcome>,
 }
 
+/// An applied candidate as stored (the `candidates` table).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredCandidate {
+    /// Run id.
+    pub run: i64,
+    /// Candidate number.
+    pub number: CandidateNumber,
+    /// Its generation.
+    pub generation: u32,
+    /// Its genome.
+    pub genome: Genome,
+    /// Its outcome.
+    pub outcome: Outcome,
+    /// The columns that repeat the outcome for queries: `kind`, `fitness`, `cell`.
+    pub columns: (String, Option<f64>, Option<i64>),
+}
+
+impl StoredCandidate {
+    /// Whether the columns that repeat the outcome say what the outcome says.
+    pub fn columns_agree(&self) -> bool {
+        let cell = match &self.outcome {
+            Outcome::Valid { cell, .. } => Some(i64::from(cell.0)),
+            _ => None,
+        };
+        self.columns.0 == self.outcome.kind()
+            && self.columns.1.map(f64::to_bits) == self.outcome.fitness().map(f64::to_bits)
+            && self.columns.2 == cell
+    }
+}
+
 /// Which elites a listing wants.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EliteFilter {
@@ -520,6 +550,104 @@ impl Db {
                         .map(|o| serde_json::from_str(&o))
                         .transpose()
                         .map_err(|e| DbError::Corrupt(format!("pending outcome: {e}")))?,
+                })
+            })
+            .collect()
+    }
+
+    /// What is inconsistent in the stored state, by cheap queries run on every resume
+    /// (`verify` replays everything): the runs against the experiment, each run's next
+    /// candidate against the highest stored, each library cell against its candidate row.
+    /// Empty when all agree.
+    pub async fn inconsistencies(&self, experiment: &Experiment) -> Result<Vec<String>, DbError> {
+        let mut out = Vec::new();
+        let specs = experiment.runs();
+        let rows = sqlx::query(
+            "SELECT id, scheme, repeat, seed, next_candidate, \
+             (SELECT MAX(number) FROM candidates WHERE run_id = runs.id) AS highest \
+             FROM runs ORDER BY id",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        if rows.len() != specs.len() {
+            out.push(format!(
+                "the experiment has {} runs, the database {}",
+                specs.len(),
+                rows.len()
+            ));
+        }
+        for (r, spec) in rows.iter().zip(&specs) {
+            let id: i64 = r.get("id");
+            let scheme: String = r.get("scheme");
+            let seed = r.get::<i64, _>("seed") as u64;
+            let repeat = r.get::<i64, _>("repeat") as u32;
+            if scheme != spec.scheme.to_string() || repeat != spec.repeat || seed != spec.seed.0 {
+                out.push(format!(
+                    "run {id}: stored as {scheme} repeat {repeat} seed {seed}, the experiment makes it {} repeat {} seed {}",
+                    spec.scheme, spec.repeat, spec.seed.0
+                ));
+            }
+            let next: i64 = r.get("next_candidate");
+            let highest: Option<i64> = r.get("highest");
+            if next != highest.map_or(0, |h| h + 1) {
+                out.push(format!(
+                    "run {id}: its next candidate is {next}, but the highest stored is {}",
+                    highest.map_or("none".to_string(), |h| h.to_string())
+                ));
+            }
+        }
+        let bad_cells: i64 = sqlx::query(
+            "SELECT COUNT(*) FROM cells l LEFT JOIN candidates c \
+             ON c.run_id = l.run_id AND c.number = l.candidate \
+             WHERE c.number IS NULL OR c.kind <> 'valid' OR c.cell <> l.cell OR c.fitness <> l.fitness",
+        )
+        .fetch_one(&self.pool)
+        .await?
+        .get(0);
+        if bad_cells > 0 {
+            out.push(format!(
+                "{bad_cells} library cells name no candidate that is valid, in that cell, with that fitness"
+            ));
+        }
+        let bad_infeasible: i64 = sqlx::query(
+            "SELECT COUNT(*) FROM infeasible_cells l LEFT JOIN candidates c \
+             ON c.run_id = l.run_id AND c.number = l.candidate \
+             WHERE c.number IS NULL OR c.kind = 'valid' OR c.standing <> l.standing",
+        )
+        .fetch_one(&self.pool)
+        .await?
+        .get(0);
+        if bad_infeasible > 0 {
+            out.push(format!(
+                "{bad_infeasible} infeasible library cells name no candidate that missed the brief with that standing"
+            ));
+        }
+        Ok(out)
+    }
+
+    /// Every applied candidate of every run, in run and number order.
+    pub async fn candidates(&self) -> Result<Vec<StoredCandidate>, DbError> {
+        let rows = sqlx::query(
+            "SELECT run_id, number, generation, genome, outcome, kind, fitness, cell FROM candidates ORDER BY run_id, number",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let run: i64 = r.get("run_id");
+                let number = r.get::<i64, _>("number") as u64;
+                let corrupt = |what: &str, e: serde_json::Error| {
+                    DbError::Corrupt(format!("run {run} candidate {number}: {what}: {e}"))
+                };
+                Ok(StoredCandidate {
+                    run,
+                    number: CandidateNumber(number),
+                    generation: r.get::<i64, _>("generation") as u32,
+                    genome: serde_json::from_str(r.get::<&str, _>("genome"))
+                        .map_err(|e| corrupt("genome", e))?,
+                    outcome: serde_json::from_str(r.get::<&str, _>("outcome"))
+                        .map_err(|e| corrupt("outcome", e))?,
+                    columns: (r.get("kind"), r.get("fitness"), r.get("cell")),
                 })
             })
             .collect()

@@ -1,0 +1,239 @@
+//! `verify`: replays a stored experiment from its candidates and says where the database
+//! disagrees with itself. Runs are deterministic, so the whole history can be checked:
+//! every run is driven again through the scheduler, which draws and breeds each candidate
+//! from the run's seed and library exactly as the live service did; each stored genome
+//! must be the one drawn, and, fed the stored outcomes, the replayed libraries and run
+//! positions must equal the stored ones. A changed genome, seed, outcome, fitness, cell
+//! or position shows up as the first place the replay and the file part. Whether the
+//! stored outcomes are what the physics gives is the other half (re-simulating a sample,
+//! done by the command line, which owns the simulator). Plain functions over plain data.
+
+use crate::db::{RunRecord, StoredCandidate, Write};
+use crate::library::{InfeasibleLibrary, Library};
+use crate::scheduler::{Scheduler, WorkerId};
+use std::collections::HashMap;
+use std::collections::HashSet;
+use std::time::{Duration, Instant};
+use strider_common::Experiment;
+
+/// Most problems reported per run (after the first divergence, the rest follow from it).
+const MAX_PROBLEMS_PER_RUN: usize = 5;
+
+/// What a replay found.
+#[derive(Debug, Default)]
+pub struct Verdict {
+    /// Stored candidates the replay applied as stored.
+    pub replayed: u64,
+    /// Where the stored state and the replay part, in run order.
+    pub problems: Vec<String>,
+}
+
+/// Replays `experiment` from `candidates` and compares with `stored` (the runs as the
+/// database holds them, libraries included).
+pub fn replay(
+    experiment: &Experiment,
+    stored: &[RunRecord],
+    candidates: &[StoredCandidate],
+) -> Verdict {
+    let mut verdict = Verdict::default();
+    let specs = experiment.runs();
+    if specs.len() != stored.len() {
+        verdict.problems.push(format!(
+            "the experiment has {} runs, the database {}",
+            specs.len(),
+            stored.len()
+        ));
+        return verdict;
+    }
+    for (i, (spec, run)) in specs.iter().zip(stored).enumerate() {
+        if *spec != run.spec {
+            verdict.problems.push(format!(
+                "run {i}: the experiment gives {:?} repeat {} seed {}, the database {:?} repeat {} seed {}",
+                spec.scheme, spec.repeat, spec.seed.0, run.spec.scheme, run.spec.repeat, run.spec.seed.0
+            ));
+        }
+    }
+    let index: HashMap<i64, u32> = stored
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (r.id, i as u32))
+        .collect();
+    let mut rows: HashMap<(u32, u64), &StoredCandidate> = HashMap::new();
+    for c in candidates {
+        match index.get(&c.run) {
+            Some(&i) => {
+                rows.insert((i, c.number.0), c);
+            }
+            None => verdict.problems.push(format!(
+                "candidate {} belongs to no run (run id {})",
+                c.number.0, c.run
+            )),
+        }
+    }
+    let fresh: Vec<RunRecord> = stored
+        .iter()
+        .map(|r| RunRecord {
+            id: r.id,
+            spec: r.spec,
+            generation: 0,
+            initial_passed: 0,
+            next_candidate: 0,
+            finished: false,
+            library: Library::new(),
+            infeasible: InfeasibleLibrary::default(),
+        })
+        .collect();
+    // Nothing expires: leases here are only the replay's bookkeeping.
+    let mut s = Scheduler::new(
+        experiment.clone(),
+        fresh,
+        Vec::new(),
+        Duration::from_secs(86_400),
+        u32::MAX,
+    );
+    let now = Instant::now();
+    let mut problems_of: Vec<usize> = vec![0; stored.len()];
+    let mut seen: HashSet<(u32, u64)> = HashSet::new();
+    let mut problem = |problems: &mut Vec<String>, run: u32, what: String| {
+        if problems_of[run as usize] < MAX_PROBLEMS_PER_RUN {
+            problems_of[run as usize] += 1;
+            problems.push(format!("run {run}: {what}"));
+        }
+    };
+    loop {
+        // Small batches: the initial population is drawn (and prechecked) only as far as needed.
+        let leased = s.lease(WorkerId(0), now, 64);
+        if leased.is_empty() {
+            break;
+        }
+        let mut answered = 0;
+        for a in leased {
+            let run = a.key.run;
+            // A draw past what is stored: the stored run stops here (spare initial draws,
+            // or the step still open).
+            let Some(c) = rows.get(&(run, a.key.number.0)) else {
+                continue;
+            };
+            if c.generation != a.key.generation {
+                continue;
+            }
+            if s.accept(WorkerId(0), a.key, c.outcome.clone(), 0.0).is_ok() {
+                answered += 1;
+            }
+        }
+        // What the replay applied (leased candidates and those settled without a trial)
+        // must be the stored rows, genome and outcome alike.
+        for w in s.take_writes() {
+            let Write::Step(step) = w else { continue };
+            let Some(&run) = index.get(&step.run) else {
+                continue;
+            };
+            for applied in &step.candidates {
+                let n = applied.number.0;
+                match rows.get(&(run, n)) {
+                    None => problem(
+                        &mut verdict.problems,
+                        run,
+                        format!("the replay applies candidate {n}, which the database does not hold"),
+                    ),
+                    Some(c) if c.genome != applied.genome => problem(
+                        &mut verdict.problems,
+                        run,
+                        format!("candidate {n}: the stored genome is not the one the run draws from its seed and library"),
+                    ),
+                    Some(c) if c.outcome != applied.outcome || c.generation != applied.generation => problem(
+                        &mut verdict.problems,
+                        run,
+                        format!("candidate {n}: the stored outcome or generation is not the one the replay applies"),
+                    ),
+                    Some(c) if !c.columns_agree() => problem(
+                        &mut verdict.problems,
+                        run,
+                        format!("candidate {n}: its kind, fitness or cell column does not say what its outcome says"),
+                    ),
+                    Some(_) => {
+                        seen.insert((run, n));
+                    }
+                }
+            }
+        }
+        if answered == 0 {
+            break;
+        }
+    }
+    verdict.replayed = seen.len() as u64;
+    for (i, stored_run) in stored.iter().enumerate() {
+        let Some(replayed) = s.run(i) else { continue };
+        let mut report = |what: String| problem(&mut verdict.problems, i as u32, what);
+        if replayed.position() != stored_run.position() {
+            report(format!(
+                "stored at {:?}, the replay of its candidates reaches {:?}",
+                stored_run.position(),
+                replayed.position()
+            ));
+        }
+        compare(
+            "library",
+            stored_run
+                .library
+                .elites()
+                .map(|(c, e)| (c, (e.candidate, e.fitness.to_bits(), e.genome))),
+            replayed
+                .library
+                .elites()
+                .map(|(c, e)| (c, (e.candidate, e.fitness.to_bits(), e.genome))),
+            &mut report,
+        );
+        compare(
+            "infeasible library",
+            stored_run
+                .infeasible
+                .elites()
+                .map(|(c, e)| (c, (e.candidate, e.shortfall, e.genome))),
+            replayed
+                .infeasible
+                .elites()
+                .map(|(c, e)| (c, (e.candidate, e.shortfall, e.genome))),
+            &mut report,
+        );
+    }
+    let unseen = candidates.len() - seen.len();
+    if unseen > 0 {
+        verdict.problems.push(format!(
+            "{unseen} stored candidates were not applied as stored by the replay (changed, added, or past where a run's history was cut)"
+        ));
+    }
+    verdict
+}
+
+/// Reports the first cells where two libraries (as `(cell, what identifies its elite)` in
+/// cell order) differ.
+fn compare<K: PartialEq + std::fmt::Debug, V: PartialEq>(
+    name: &str,
+    stored: impl Iterator<Item = (K, V)>,
+    replayed: impl Iterator<Item = (K, V)>,
+    report: &mut impl FnMut(String),
+) {
+    let stored: Vec<(K, V)> = stored.collect();
+    let replayed: Vec<(K, V)> = replayed.collect();
+    if stored.len() != replayed.len() {
+        report(format!(
+            "the stored {name} has {} elites, the replay {}",
+            stored.len(),
+            replayed.len()
+        ));
+        return;
+    }
+    for ((sc, sv), (rc, rv)) in stored.iter().zip(&replayed) {
+        if sc != rc {
+            report(format!(
+                "the stored {name} holds cell {sc:?} where the replay holds {rc:?}"
+            ));
+            return;
+        }
+        if sv != rv {
+            report(format!("the stored {name}'s elite of cell {sc:?} differs from the replay's (candidate, fitness or genome)"));
+            return;
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! `verify` and the checks on resume catch what SQLite cannot see (issue 14): a finished
+//! database agrees with itself; an edited genome, outcome, seed, next candidate, fitness
+//! column or deleted cell is named, and the cheap checks refuse to resume from the edits
+//! they can see.
+
+use std::path::{Path, PathBuf};
+use strider_tests::{run, run_ok, sqlite, temp_dir};
+
+const FIXTURE: &str = "tests/fixtures/service.toml";
+
+/// A copy of `db` with `sql` applied.
+fn corrupted(db: &Path, name: &str, sql: &str) -> PathBuf {
+    let copy = db.with_file_name(format!("{name}.db"));
+    std::fs::copy(db, &copy).unwrap();
+    sqlite(&copy, sql);
+    copy
+}
+
+/// `verify`'s exit status and output.
+fn verify(db: &Path, sample: &str) -> (i32, String) {
+    let out = run(
+        "strider-coordinator",
+        &["verify", "--db", db.to_str().unwrap(), "--sample", sample],
+    );
+    (
+        out.status.code().unwrap(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
+/// Whether `run` on the database refuses to resume, naming `what`.
+fn resume_refused(db: &Path, what: &str) {
+    let out = run(
+        "strider-coordinator",
+        &["run", "--db", db.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("is inconsistent") && err.contains(what),
+        "{err}"
+    );
+}
+
+#[test]
+fn verify_and_resume_catch_edits_sqlite_cannot_see() {
+    let dir = temp_dir("verify");
+    let db = dir.join("whole.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            FIXTURE,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+    let (code, out) = verify(&db, "30");
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("agrees with itself"), "{out}");
+    assert!(out.contains("30 identical, 0 different"), "{out}");
+
+    // One digit of an offspring's genome (its range still holds).
+    let genome = corrupted(
+        &db,
+        "genome",
+        "UPDATE candidates SET genome = json_set(genome, '$.morphology.body_half_x', \
+         json_extract(genome, '$.morphology.body_half_x') - 0.001) \
+         WHERE run_id = 0 AND number = (SELECT MIN(number) FROM candidates WHERE run_id = 0 \
+         AND generation = 3 AND json_extract(genome, '$.morphology.body_half_x') > 0.5)",
+    );
+    let (code, out) = verify(&genome, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("the stored genome is not the one"), "{out}");
+
+    // An outcome's controller (the first stored candidate: the sample always holds it).
+    let outcome = corrupted(
+        &db,
+        "outcome",
+        "UPDATE candidates SET outcome = json_set(outcome, '$.controller.stride_frequency', \
+         json_extract(outcome, '$.controller.stride_frequency') + 0.001) \
+         WHERE run_id = 0 AND number = 0",
+    );
+    let (code, out) = verify(&outcome, "1");
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("simulated again it gives"), "{out}");
+
+    // The seed of a run.
+    let seed = corrupted(&db, "seed", "UPDATE runs SET seed = seed + 1 WHERE id = 0");
+    let (code, out) = verify(&seed, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("seed"), "{out}");
+    resume_refused(&seed, "seed");
+
+    // The next candidate of a run.
+    let next = corrupted(
+        &db,
+        "next",
+        "UPDATE runs SET next_candidate = next_candidate + 3 WHERE id = 1",
+    );
+    let (code, out) = verify(&next, "0");
+    assert_eq!(code, 1, "{out}");
+    resume_refused(&next, "next candidate");
+
+    // An elite's fitness column.
+    let fitness = corrupted(
+        &db,
+        "fitness",
+        "UPDATE candidates SET fitness = fitness * 1.5 \
+         WHERE (run_id, number) IN (SELECT run_id, candidate FROM cells LIMIT 1)",
+    );
+    let (code, out) = verify(&fitness, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("column does not say what its outcome says"),
+        "{out}"
+    );
+    resume_refused(&fitness, "library cells");
+
+    // A deleted cell of the library.
+    let cell = corrupted(
+        &db,
+        "cell",
+        "DELETE FROM cells WHERE rowid = (SELECT MIN(rowid) FROM cells)",
+    );
+    let (code, out) = verify(&cell, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("elites, the replay"), "{out}");
+
+    std::fs::remove_dir_all(&dir).unwrap();
+}
