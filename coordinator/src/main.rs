@@ -869,6 +869,15 @@ async fn analyse(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A duration in hours, as a person reads it.
+fn hours_text(h: f64) -> String {
+    if h >= 1.0 {
+        format!("{h:.1} h")
+    } else {
+        format!("{:.0} min", (h * 60.0).ceil())
+    }
+}
+
 fn check(path: &Path) -> anyhow::Result<()> {
     let e = Experiment::load(path)?;
     let runs = e.runs();
@@ -910,6 +919,36 @@ fn check(path: &Path) -> anyhow::Result<()> {
         } else {
             ""
         }
+    );
+    // What it costs, from MAX's measured trial (BENCHMARKS.md: 22.4 ms of one core for
+    // 6 simulated seconds at 30 steps/s, 0.124 ms a physics step); most random designs end
+    // sooner (they fall or touch themselves), so these are upper figures.
+    let per_run = u64::from(e.run.initial_population) + e.offspring_per_run();
+    let steps = (e.run.trial_seconds + e.trial.upright_after_seconds) / e.run.physics_dt();
+    let trial_seconds = steps * 0.124e-3;
+    let trials: u64 = runs
+        .iter()
+        .map(|r| match r.scheme {
+            strider_common::Scheme::Es => per_run * (u64::from(e.run.es_iterations) + 1),
+            _ => per_run,
+        })
+        .sum();
+    let core_hours = trials as f64 * trial_seconds / 3600.0;
+    let cores = default_threads().get();
+    outln!(
+        "cost: {} candidates, at most {} trials (an ES candidate is {} trials){}; at most {} of one core at {:.1} ms a trial (MAX's; most designs end sooner), {} on this machine's {} cores",
+        per_run * runs.len() as u64,
+        trials,
+        e.run.es_iterations + 1,
+        match e.search.constraints {
+            strider_common::experiment::ConstraintHandling::Reject =>
+                ", plus the initial draws until enough meet the whole brief (unbounded)",
+            _ => "",
+        },
+        hours_text(core_hours),
+        trial_seconds * 1e3,
+        hours_text(core_hours / cores as f64),
+        cores
     );
     for r in runs {
         outln!(

@@ -141,6 +141,11 @@ fn check_lists_the_paper_runs() {
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("experiment `paper`: 60 runs"), "{text}");
     assert!(text.contains("es      repeat  19  seed 20"), "{text}");
+    // What it will cost: 60 x (400 + 240,000) candidates; ES candidates are 21 trials each.
+    assert!(
+        text.contains("cost: 14424000 candidates, at most 110584000 trials"),
+        "{text}"
+    );
 }
 
 #[test]
