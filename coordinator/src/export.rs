@@ -75,13 +75,23 @@ fn stat_values(s: &TrialStats) -> [f64; 6] {
     ]
 }
 
-/// The CSV header: identity, fitness, features, statistics, then every genome parameter
-/// by its table name.
+/// The trial statistics in the CSV: all but `mass`, which is the feature
+/// `feature_total_mass` again.
+const CSV_STATS: [usize; 5] = [0, 1, 2, 4, 5];
+
+/// The CSV header: identity, fitness, features (`feature_` and the feature's name: four
+/// features are genome parameters too, and a column name must not repeat), statistics,
+/// then every genome parameter by its table name. Every name is unique, so pandas reads
+/// it as written.
 pub fn csv_header() -> String {
     let mut h = String::from("run,scheme,repeat,cell,candidate,fitness");
-    for name in FEATURE_NAMES.iter().chain(&STAT_NAMES) {
-        h.push(',');
+    for name in FEATURE_NAMES {
+        h.push_str(",feature_");
         h.push_str(name);
+    }
+    for i in CSV_STATS {
+        h.push(',');
+        h.push_str(STAT_NAMES[i]);
     }
     for p in MORPHOLOGY_PARAMS.iter().chain(CONTROLLER_PARAMS) {
         h.push(',');
@@ -98,11 +108,12 @@ pub fn csv_line(r: &EliteRow) -> String {
     );
     match &r.measured {
         Some((f, s)) => {
-            for v in f.0.iter().chain(&stat_values(s)) {
+            let stats = stat_values(s);
+            for v in f.0.iter().chain(CSV_STATS.iter().map(|&i| &stats[i])) {
                 let _ = write!(line, ",{v}");
             }
         }
-        None => line.push_str(&",".repeat(FEATURE_NAMES.len() + STAT_NAMES.len())),
+        None => line.push_str(&",".repeat(FEATURE_NAMES.len() + CSV_STATS.len())),
     }
     let values = r
         .genome
@@ -253,7 +264,12 @@ mod tests {
     #[test]
     fn the_csv_header_and_a_line_without_outcome_have_the_same_columns() {
         let header = csv_header();
-        assert!(header.starts_with("run,scheme,repeat,cell,candidate,fitness,total_leg_length"));
+        assert!(
+            header.starts_with("run,scheme,repeat,cell,candidate,fitness,feature_total_leg_length")
+        );
+        let names: Vec<&str> = header.split(',').collect();
+        let unique: std::collections::HashSet<&&str> = names.iter().collect();
+        assert_eq!(unique.len(), names.len(), "a column name repeats: {header}");
         let genome = Genome::load(
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"),
         )

@@ -144,18 +144,21 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
     let text = String::from_utf8(out.stdout).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    // Identity and fitness, 6 features, 6 trial figures, 43 + 7 genome parameters.
-    assert_eq!(header.len(), 6 + 6 + 6 + 43 + 7);
-    assert_eq!(header[6], "total_leg_length");
+    // Identity and fitness, 6 features, 5 trial figures, 43 + 7 genome parameters; no
+    // name twice (pandas would rename the second).
+    assert_eq!(header.len(), 6 + 6 + 5 + 43 + 7);
+    assert_eq!(header[6], "feature_total_leg_length");
     assert_eq!(header[12], "distance");
-    assert_eq!(header[18], "body_half_x");
+    assert_eq!(header[17], "body_half_x");
+    let unique: std::collections::HashSet<&&str> = header.iter().collect();
+    assert_eq!(unique.len(), header.len(), "{header:?}");
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), elites);
     for row in &rows {
         assert_eq!(row.len(), header.len());
         // Every elite passed a trial: its features and figures are there.
         assert!(
-            row[6..18].iter().all(|v| v.parse::<f64>().is_ok()),
+            row[6..17].iter().all(|v| v.parse::<f64>().is_ok()),
             "{row:?}"
         );
     }
@@ -184,7 +187,12 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
     );
     let robot = urdf_rs::read_file(&urdf).expect("the URDF parses");
     let mass: f64 = robot.links.iter().map(|l| l.inertial.mass.value).sum();
-    let trial_mass: f64 = best[15].parse().unwrap();
+    let trial_mass: f64 = best[header
+        .iter()
+        .position(|h| *h == "feature_total_mass")
+        .unwrap()]
+    .parse()
+    .unwrap();
     assert!((mass - trial_mass).abs() < 1e-9, "{mass} vs {trial_mass}");
     assert!(
         robot.name.contains(&format!("cell {}", best[3])),
