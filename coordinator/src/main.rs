@@ -140,7 +140,9 @@ enum Command {
         #[arg(long, value_enum, default_value = "json")]
         format: Format,
         /// One elite instead of all: RUN:CELL, or `best` (of --run, or of the experiment).
-        #[arg(long, requires = "urdf")]
+        /// Alone, its genome file (JSON, as `strider-worker eval` and `inspect` read it) is
+        /// written to standard output; with --urdf, its design as URDF.
+        #[arg(long)]
         elite: Option<EliteChoice>,
         /// Write the chosen elite's design here as URDF (links with masses and inertias,
         /// revolute joints with axes and the motors' limits).
@@ -357,6 +359,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             urdf,
         } => match (elite, urdf) {
             (Some(elite), Some(urdf)) => runtime()?.block_on(export_urdf(&db, run, elite, &urdf)),
+            (Some(elite), None) => runtime()?.block_on(export_genome(&db, run, elite)),
             _ => runtime()?.block_on(export(&db, run, format)),
         },
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
@@ -655,6 +658,15 @@ async fn selected_runs(db: &Db, only: Option<i64>) -> anyhow::Result<Vec<RunReco
 }
 
 /// `export --elite E --urdf FILE`: one elite's body plan as URDF.
+async fn export_genome(path: &Path, only: Option<i64>, choice: EliteChoice) -> anyhow::Result<()> {
+    let (db, _) = open_existing(path).await?;
+    let runs = selected_runs(&db, only).await?;
+    let (run, cell, fitness, genome) = export::find(&runs, choice).map_err(anyhow::Error::msg)?;
+    outln!("{}", genome.to_json_pretty());
+    eprintln!("run {run}, cell {}: fitness {fitness:.4}", cell.0);
+    Ok(())
+}
+
 async fn export_urdf(
     path: &Path,
     only: Option<i64>,

@@ -199,6 +199,34 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
         "{}",
         robot.name
     );
+    // The same elite's genome file, to run again or draw without the database: it loads,
+    // and `strider-worker urdf` makes the same robot of it.
+    let out = run_ok(
+        "strider-coordinator",
+        &["export", "--db", db.to_str().unwrap(), "--elite", "best"],
+    );
+    let genome_file = dir.join("best.json");
+    std::fs::write(&genome_file, &out.stdout).unwrap();
+    strider_common::Genome::load(&genome_file).expect("the exported genome loads");
+    let again = dir.join("again.urdf");
+    run_ok(
+        "strider-worker",
+        &[
+            "urdf",
+            genome_file.to_str().unwrap(),
+            "--out",
+            again.to_str().unwrap(),
+            "--experiment",
+            TINY,
+        ],
+    );
+    let robot_again = urdf_rs::read_file(&again).expect("the URDF parses");
+    let mass_again: f64 = robot_again
+        .links
+        .iter()
+        .map(|l| l.inertial.mass.value)
+        .sum();
+    assert_eq!(mass_again.to_bits(), mass.to_bits());
     // A cell with no elite is refused by name.
     let out = run(
         "strider-coordinator",

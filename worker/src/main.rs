@@ -123,6 +123,18 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Write a genome's design as URDF (links with masses and inertias, revolute joints with
+    /// axes and the motors' limits), for ROS, Gazebo, PyBullet or MuJoCo's importer.
+    Urdf {
+        /// Genome file (.json or .toml).
+        genome: PathBuf,
+        /// Where to write it.
+        #[arg(long)]
+        out: PathBuf,
+        /// Take the payload from this experiment file (the paper's otherwise).
+        #[arg(long)]
+        experiment: Option<PathBuf>,
+    },
     /// Print the genome's parameter table (Markdown): names, ranges, units, groups.
     Params,
     /// Print the random genome a run draws as candidate N (JSON).
@@ -335,6 +347,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let g = Genome::load(&genome)?;
             let ctx = context(experiment.as_deref())?;
             emit(&Inspection::of(&g, &ctx.brief, &ctx.grid), json)
+        }
+        Command::Urdf {
+            genome,
+            out,
+            experiment,
+        } => {
+            let g = Genome::load(&genome)?;
+            let ctx = context(experiment.as_deref())?;
+            let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+            let name = genome
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("design");
+            std::fs::write(&out, strider_common::urdf::to_urdf(name, &plan))
+                .with_context(|| format!("writing {}", out.display()))?;
+            eprintln!(
+                "{}: {:.2} kg, {} legs -> {}",
+                genome.display(),
+                plan.total_mass(),
+                plan.legs.len(),
+                out.display()
+            );
+            Ok(())
         }
         Command::Survey {
             count,
