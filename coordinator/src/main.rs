@@ -572,7 +572,14 @@ async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment)> {
     if !path.exists() {
         bail!("no database at {}", path.display());
     }
-    let db = Db::open(path, false).await?;
+    // A file this process may not write (a read-only mount, a backup kept read-only)
+    // fails the usual open (it migrates and sets the log mode): read it as it is.
+    let db = match Db::open(path, false).await {
+        Ok(db) => db,
+        Err(writable) => Db::open_read_only(path)
+            .await
+            .map_err(|read_only| anyhow::anyhow!("{writable}; read-only, {read_only}"))?,
+    };
     let (experiment, _) = db
         .experiment()
         .await?
@@ -765,6 +772,15 @@ async fn verify(
     use strider_worker::batch::{evaluate_batch, Job};
     use strider_worker::evaluate::EvalContext;
     let (db, experiment) = open_existing(path).await?;
+    let made_by = db.experiment().await?.map(|(_, build)| build);
+    let other_build = made_by.as_deref().filter(|b| *b != build_id());
+    if let Some(b) = other_build {
+        eprintln!(
+            "warning: {} was made by {b}; this is {}: breeding and trials are bit-identical only within one build, so differences below may be the build's, not damage",
+            path.display(),
+            build_id()
+        );
+    }
     let runs = db.runs().await?;
     let candidates = db.candidates().await?;
     let mut verdict = strider_coordinator::verify::replay(&experiment, &runs, &candidates);
@@ -800,24 +816,26 @@ async fn verify(
     if !chosen.is_empty() {
         let spec_of: HashMap<i64, strider_common::experiment::RunSpec> =
             runs.iter().map(|r| (r.id, r.spec)).collect();
-        let mut jobs = Vec::with_capacity(chosen.len());
-        for c in &chosen {
-            let Some(spec) = spec_of.get(&c.run) else {
-                continue;
-            };
-            jobs.push(Job {
+        // Candidates of no run were reported by the replay; the rest, paired with their jobs.
+        let chosen: Vec<_> = chosen
+            .into_iter()
+            .filter_map(|c| spec_of.get(&c.run).map(|spec| (c, *spec)))
+            .collect();
+        let jobs: Vec<Job> = chosen
+            .iter()
+            .map(|(c, spec)| Job {
                 genome: c.genome,
                 scheme: spec.scheme,
                 seed: CandidateSeed::new(spec.seed.0, c.number.0),
-            });
-        }
+            })
+            .collect();
         let ctx = EvalContext::of(&experiment);
         let threads = workers.unwrap_or_else(default_threads);
         let outcomes = tokio::task::spawn_blocking(move || evaluate_batch(&ctx, &jobs, threads))
             .await
             .context("simulating the sample")?;
         let mut differ = 0;
-        for (c, o) in chosen.iter().zip(&outcomes) {
+        for ((c, _), o) in chosen.iter().zip(&outcomes) {
             let stored = serde_json::to_string(&c.outcome)?;
             let again = serde_json::to_string(o)?;
             if stored != again {

@@ -28,9 +28,10 @@ use strider_worker::evaluate::{precheck, EvalContext};
 /// affect results.
 pub const INITIAL_WINDOW: u64 = 4096;
 
-/// Workers a candidate may take down with it (each died or lost its connection while
-/// simulating it) before it is marked failed. Hand-backs, expired leases and leases never
-/// started do not count: they say nothing about the candidate.
+/// Workers a candidate may take down with it before it is marked failed: each died, lost
+/// its connection, stalled past its lease or sent a result that was refused, while it was
+/// simulating the candidate; each worker session counts once per candidate. Hand-backs and
+/// leases never begun do not count: they say nothing about the candidate.
 pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
 
 /// A worker connection (ids are never reused).
@@ -111,6 +112,8 @@ struct Pending {
     generation: u32,
     genome: Genome,
     attempts: u32,
+    /// Worker sessions already charged an attempt for it (each counts once).
+    charged: Vec<WorkerId>,
     state: State,
 }
 
@@ -122,6 +125,8 @@ struct RunState {
     waiting: BTreeSet<u64>,
     /// One past the highest candidate number drawn (the next initial draw's number).
     frontier: u64,
+    /// Draw no initial candidate from this number on (a replay of stored history).
+    draw_limit: u64,
 }
 
 /// Progress of one run, now.
@@ -184,6 +189,7 @@ impl Scheduler {
                 .into_iter()
                 .map(|record| RunState {
                     frontier: record.next_candidate,
+                    draw_limit: u64::MAX,
                     record,
                     step: BTreeMap::new(),
                     waiting: BTreeSet::new(),
@@ -249,7 +255,8 @@ impl Scheduler {
             !r.record.finished
                 && (!r.waiting.is_empty()
                     || (r.record.initial_passed < self.experiment.run.initial_population
-                        && window(r)))
+                        && window(r)
+                        && r.frontier < r.draw_limit))
         })
     }
 
@@ -401,6 +408,21 @@ impl Scheduler {
         }
     }
 
+    /// Draws no initial candidate of run `i` numbered `limit` or more: a replay of stored
+    /// history (`verify`) stops where the history does.
+    pub fn limit_draws(&mut self, i: usize, limit: u64) {
+        if let Some(r) = self.runs.get_mut(i) {
+            r.draw_limit = limit;
+        }
+    }
+
+    /// A result of `worker` for `key` was refused (malformed, or not what the trial
+    /// gives): its lease ends with an attempt counted, so a candidate whose results are
+    /// always refused fails instead of going round for ever.
+    pub fn refused(&mut self, worker: WorkerId, key: CandidateKey, why: &str) {
+        self.end_lease(key, |w| w == worker, Some(why));
+    }
+
     /// `worker` is gone: what it held waits again, and each candidate it had begun
     /// simulating counts one attempt (a candidate that takes down every worker that
     /// simulates it fails after `max_attempts`; one that was only queued is not suspect).
@@ -413,16 +435,21 @@ impl Scheduler {
         }
     }
 
-    /// Leases past their time wait again, with no attempt counted: a worker simulating a
-    /// candidate keeps heartbeating it, so an expiry says its worker stalled or its
-    /// network did, not that the candidate is at fault. Returns how many expired. A
-    /// result that comes late is still taken if the candidate has none yet.
+    /// Leases past their time wait again. A lease never begun costs nothing; one its worker
+    /// was simulating counts an attempt (once per worker: a worker stopped or cut off
+    /// once is not charged again, but a candidate that stalls every worker that takes it
+    /// fails instead of going round for ever). Returns how many expired. A result that
+    /// comes late is still taken if the candidate has none yet.
     pub fn expire(&mut self, now: Instant) -> usize {
-        let expired = self.leases_where(|_, expires, _| expires <= now);
-        for key in &expired {
+        let started = self.leases_where(|_, expires, started| expires <= now && started);
+        for key in &started {
+            self.end_lease(*key, |_| true, Some("its worker stalled past the lease"));
+        }
+        let queued = self.leases_where(|_, expires, _| expires <= now);
+        for key in &queued {
             self.end_lease(*key, |_| true, None);
         }
-        expired.len()
+        started.len() + queued.len()
     }
 
     fn leases_where(&self, f: impl Fn(WorkerId, Instant, bool) -> bool) -> Vec<CandidateKey> {
@@ -474,7 +501,10 @@ impl Scheduler {
             return;
         }
         let run = r.record.id;
+        // Each worker session is charged once per candidate.
+        let lost = lost.filter(|_| !p.charged.contains(&worker));
         if let Some(why) = lost {
+            p.charged.push(worker);
             p.attempts += 1;
             if p.attempts >= max_attempts {
                 let outcome = Outcome::Invalid {
@@ -533,6 +563,7 @@ impl Scheduler {
         let scheme = self.runs[i].record.spec.scheme;
         while self.runs[i].waiting.is_empty()
             && self.runs[i].frontier - self.runs[i].record.next_candidate < INITIAL_WINDOW
+            && self.runs[i].frontier < self.runs[i].draw_limit
         {
             let number = self.runs[i].frontier;
             self.runs[i].frontier += 1;
@@ -601,6 +632,7 @@ impl Scheduler {
                 generation,
                 genome,
                 attempts,
+                charged: Vec::new(),
                 state,
             },
         );

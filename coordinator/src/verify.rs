@@ -91,6 +91,11 @@ pub fn replay(
         Duration::from_secs(86_400),
         u32::MAX,
     );
+    // The replay stops where the stored history does: no initial draw past it (one that
+    // fails the checks before simulating would be applied at once).
+    for (i, r) in stored.iter().enumerate() {
+        s.limit_draws(i, r.next_candidate);
+    }
     let now = Instant::now();
     let mut problems_of: Vec<usize> = vec![0; stored.len()];
     let mut seen: HashSet<(u32, u64)> = HashSet::new();
@@ -106,7 +111,8 @@ pub fn replay(
         if leased.is_empty() {
             break;
         }
-        let mut answered = 0;
+        // Leases left unanswered (past the stored history) stay out: the loop ends when
+        // nothing is left to lease.
         for a in leased {
             let run = a.key.run;
             // A draw past what is stored: the stored run stops here (spare initial draws,
@@ -117,9 +123,7 @@ pub fn replay(
             if c.generation != a.key.generation {
                 continue;
             }
-            if s.accept(WorkerId(0), a.key, c.outcome.clone(), 0.0).is_ok() {
-                answered += 1;
-            }
+            let _ = s.accept(WorkerId(0), a.key, c.outcome.clone(), 0.0);
         }
         // What the replay applied (leased candidates and those settled without a trial)
         // must be the stored rows, genome and outcome alike.
@@ -156,9 +160,6 @@ pub fn replay(
                     }
                 }
             }
-        }
-        if answered == 0 {
-            break;
         }
     }
     verdict.replayed = seen.len() as u64;

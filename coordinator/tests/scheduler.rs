@@ -444,3 +444,62 @@ fn a_late_result_after_an_expiry_is_taken_when_no_other_worker_answered() {
         Ok(Accepted::Duplicate)
     );
 }
+
+#[test]
+fn a_stalled_worker_is_charged_once_and_a_candidate_that_stalls_three_fails() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let victim = first_offspring(&e, &mut s, now);
+    s.disconnect(WorkerId(0), "stream dropped");
+    s.take_writes();
+    let mut t = now;
+    // Worker 1 takes it, begins it, and stalls past the lease twice (it comes back to
+    // worker 1 the second time): one attempt, not two.
+    for _ in 0..2 {
+        let got = s.lease(WorkerId(1), t, 100);
+        assert!(got.iter().any(|a| a.key == victim.key));
+        s.started(WorkerId(1), &[victim.key]);
+        t += LEASE + Duration::from_secs(1);
+        s.expire(t);
+    }
+    let lost = |writes: &[Write]| {
+        writes
+            .iter()
+            .filter_map(|w| match w {
+                Write::LeaseLost {
+                    number, attempts, ..
+                } if *number == victim.key.number => Some(*attempts),
+                _ => None,
+            })
+            .max()
+    };
+    let writes = s.take_writes();
+    assert_eq!(lost(&writes), Some(1));
+    // Two more workers stall on it: the third attempt fails it.
+    for w in 2..=3u64 {
+        let got = s.lease(WorkerId(w), t, 100);
+        assert!(got.iter().any(|a| a.key == victim.key));
+        s.started(WorkerId(w), &[victim.key]);
+        t += LEASE + Duration::from_secs(1);
+        s.expire(t);
+    }
+    assert!(failed_in(&s.take_writes(), victim.key));
+}
+
+#[test]
+fn a_result_refused_every_time_fails_its_candidate() {
+    let e = experiment();
+    let mut s = fresh(&e, 2);
+    let now = Instant::now();
+    let victim = first_offspring(&e, &mut s, now);
+    s.disconnect(WorkerId(0), "stream dropped");
+    s.take_writes();
+    for w in 1..=2u64 {
+        let got = s.lease(WorkerId(w), now, 100);
+        assert!(got.iter().any(|a| a.key == victim.key));
+        s.refused(WorkerId(w), victim.key, "outcome.valid.cell does not match");
+        s.disconnect(WorkerId(w), "refused");
+    }
+    assert!(failed_in(&s.take_writes(), victim.key));
+}

@@ -36,22 +36,32 @@ pub const EXIT_USAGE: u8 = 2;
 /// Exit status of any other error.
 pub const EXIT_FAILURE: u8 = 1;
 
-/// Crates whose debug output is wire frames, not Strider's story: kept at `info` unless
-/// the filter names them (`STRIDER_LOG=debug` was 2,200 lines of h2 frames per run).
+/// Crates whose debug output is wire frames, not Strider's story: kept at `info` under a
+/// debug or trace filter unless it names them (`STRIDER_LOG=debug` was 2,200 lines of h2
+/// frames per run).
 const QUIET: [&str; 4] = ["h2", "hyper", "hyper_util", "tower"];
 
 /// Logs to stderr at the level `STRIDER_LOG` (else `RUST_LOG`, else `info`) sets, in
 /// colour only on a terminal and without `NO_COLOR` (no-color.org). A filter that does
 /// not parse is an error naming the variable, not silently `info`.
 pub fn init_logs() -> Result<(), String> {
-    let (var, text) = match (std::env::var("STRIDER_LOG"), std::env::var("RUST_LOG")) {
-        (Ok(s), _) => ("STRIDER_LOG", s),
-        (Err(_), Ok(r)) => ("RUST_LOG", r),
+    // An empty variable is an unset one.
+    let set = |name: &str| std::env::var(name).ok().filter(|v| !v.trim().is_empty());
+    let (var, text) = match (set("STRIDER_LOG"), set("RUST_LOG")) {
+        (Some(s), _) => ("STRIDER_LOG", s),
+        (None, Some(r)) => ("RUST_LOG", r),
         _ => ("", "info".to_string()),
     };
     let mut directives = text.clone();
+    let verbose = text.contains("debug") || text.contains("trace");
+    // The targets the filter names (`target=level` or `target[span]=level`).
+    let named: Vec<&str> = text
+        .split(',')
+        .filter_map(|d| d.split(['=', '[']).next())
+        .map(str::trim)
+        .collect();
     for q in QUIET {
-        if !text.contains(q) {
+        if verbose && !named.contains(&q) {
             directives.push_str(&format!(",{q}=info"));
         }
     }

@@ -371,3 +371,48 @@ fn ctrl_c_and_sigterm_stop_run_honestly_and_the_next_run_finishes_the_same_libra
     assert_same_library(&export(&db), &expected);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn export_analyse_and_verify_read_a_database_on_a_read_only_mount() {
+    let dir = temp_dir("read-only-mount");
+    let db = dir.join("finished.db");
+    run_to_end(&db, "2");
+    let expected = export(&db);
+    // A private mount namespace (as an unprivileged user where allowed) with the
+    // directory bind-mounted read-only over itself: what a backup on a read-only share is.
+    let script = format!(
+        "mount --bind {d} {d} && mount -o remount,ro,bind {d} && \
+         if touch {d}/probe 2>/dev/null; then echo WRITABLE; exit 3; fi && \
+         {bin} export --db {db} > {d}.json && \
+         {bin} analyse --db {db} > /dev/null && \
+         {bin} verify --db {db} --sample 2",
+        d = dir.display(),
+        db = db.display(),
+        bin = binary("strider-coordinator").display()
+    );
+    let probe = Command::new("unshare")
+        .args(["-rm", "true"])
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    if !probe {
+        strider_tests::skip_without("unshare -rm (user and mount namespaces) is not available");
+        return;
+    }
+    let out = Command::new("unshare")
+        .args(["-rm", "sh", "-c", &script])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "{err}\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let json = dir.with_extension("json");
+    let read: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_same_library(&read, &expected);
+    std::fs::remove_file(json).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}

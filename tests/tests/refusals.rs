@@ -176,6 +176,41 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             .unwrap();
         assert_eq!(h.into_inner().status, 1, "SERVING");
 
+        // Reflection answers in both versions (Python's reflection client and older grpcurl
+        // speak v1alpha) and lists health beside Strider's services.
+        {
+            use tonic_reflection::pb::v1alpha::{
+                server_reflection_client::ServerReflectionClient,
+                server_reflection_request::MessageRequest,
+                server_reflection_response::MessageResponse, ServerReflectionRequest,
+            };
+            let mut reflection = ServerReflectionClient::new(channel.clone());
+            let request = ServerReflectionRequest {
+                host: String::new(),
+                message_request: Some(MessageRequest::ListServices(String::new())),
+            };
+            let mut answers = reflection
+                .server_reflection_info(authorised(tokio_stream::iter([request])))
+                .await
+                .expect("v1alpha reflection is served")
+                .into_inner();
+            let answer = answers.message().await.unwrap().unwrap();
+            let Some(MessageResponse::ListServicesResponse(list)) = answer.message_response else {
+                panic!("not a service list: {answer:?}");
+            };
+            let names: Vec<String> = list.service.into_iter().map(|s| s.name).collect();
+            for wanted in [
+                "strider.v1.WorkerService",
+                "strider.v1.ClientService",
+                "grpc.health.v1.Health",
+            ] {
+                assert!(
+                    names.iter().any(|n| n == wanted),
+                    "{wanted} not in {names:?}"
+                );
+            }
+        }
+
         // No secret, or a wrong one.
         let mut client = ClientServiceClient::new(channel.clone());
         let s = client

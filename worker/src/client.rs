@@ -380,13 +380,19 @@ async fn session(
                 }
             },
             _ = heartbeat.tick() => {
-                let in_progress: Vec<v1::CandidateId> = running
+                // The running trials are said started again: a lease that expired and came
+                // back to this worker began again as not started.
+                let started: Vec<v1::CandidateId> = running
                     .iter()
                     .map(|&(run, generation, number)| v1::CandidateId { run, generation, number })
+                    .collect();
+                let in_progress: Vec<v1::CandidateId> = started
+                    .iter()
+                    .copied()
                     .chain(queue.iter().map(|j| j.id))
                     .collect();
                 if !in_progress.is_empty()
-                    && out.send(msg(worker_message::Kind::Heartbeat(v1::Heartbeat { in_progress, started: Vec::new() }))).await.is_err()
+                    && out.send(msg(worker_message::Kind::Heartbeat(v1::Heartbeat { in_progress, started }))).await.is_err()
                 {
                     return lost("the stream closed".into());
                 }

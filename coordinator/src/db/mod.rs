@@ -435,6 +435,39 @@ impl Db {
         Ok(Self { pool, _lock: None })
     }
 
+    /// Opens a database on a read-only mount or without write permission (a backup, a
+    /// colleague's copy) for reading: immutable, so SQLite creates no lock or log files
+    /// beside it and reads only the main file (whole after a clean stop, and always in a
+    /// backup). Its schema must be current: an older file is migrated by opening it
+    /// writable once.
+    pub async fn open_read_only(path: &Path) -> Result<Self, DbError> {
+        let open_error = |e| DbError::Open {
+            path: path.display().to_string(),
+            source: e,
+        };
+        let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
+            .map_err(open_error)?
+            .read_only(true)
+            .immutable(true);
+        let pool = SqlitePoolOptions::new()
+            .max_connections(4)
+            .connect_with(options)
+            .await
+            .map_err(open_error)?;
+        let applied: i64 = sqlx::query("SELECT COUNT(*) FROM _sqlx_migrations WHERE success")
+            .fetch_one(&pool)
+            .await?
+            .get(0);
+        let known = sqlx::migrate!("./migrations").iter().count() as i64;
+        if applied < known {
+            return Err(DbError::Corrupt(format!(
+                "{} has an older schema ({applied} of {known} migrations) and cannot be brought up to date read-only: copy it somewhere writable first",
+                path.display()
+            )));
+        }
+        Ok(Self { pool, _lock: None })
+    }
+
     /// The stored experiment, if any.
     pub async fn experiment(&self) -> Result<Option<(Experiment, String)>, DbError> {
         let row = sqlx::query("SELECT definition, build FROM experiment WHERE id = 1")

@@ -159,9 +159,15 @@ pub async fn serve(
             .set_service_status(name, tonic_health::ServingStatus::Serving)
             .await;
     }
-    let reflection = tonic_reflection::server::Builder::configure()
-        .register_encoded_file_descriptor_set(strider_proto::FILE_DESCRIPTOR_SET)
-        .build_v1()?;
+    // Reflection in both versions (Python's reflection client and older grpcurl ask for
+    // v1alpha), listing health as well as Strider's services.
+    let reflected = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(strider_proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection = reflected().build_v1()?;
+    let reflection_v1alpha = reflected().build_v1alpha()?;
     let interceptor = secret.interceptor();
     let workers = WorkerServiceServer::new(WorkerApi {
         shared: shared.clone(),
@@ -204,6 +210,10 @@ pub async fn serve(
         .add_service(health_service)
         .add_service(tonic::service::interceptor::InterceptedService::new(
             reflection,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            reflection_v1alpha,
             interceptor.clone(),
         ))
         .add_service(tonic::service::interceptor::InterceptedService::new(

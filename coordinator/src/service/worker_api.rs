@@ -169,11 +169,19 @@ impl Session {
                 _ = &mut drained, if backlogged => {}
                 m = inbound.message(), if !backlogged => match m {
                     Ok(Some(m)) => {
+                        let result_of = match &m.kind {
+                            Some(worker_message::Kind::Result(r)) => key_from_wire(r.id.as_ref()).ok(),
+                            _ => None,
+                        };
                         if let Err(status) = self.handle(m) {
                             tracing::warn!(worker = self.id.0, "refused: {}", status.message());
-                            // A misbehaving worker is cut off; what it held waits for others.
-                            let held: Vec<CandidateKey> = self.held.iter().copied().collect();
-                            self.shared.with(true, |s| s.release(self.id, &held));
+                            // A misbehaving worker is cut off; what it held waits for others
+                            // (the session's end below). A refused result costs its candidate
+                            // an attempt: a result refused every time must not go round for ever.
+                            if let Some(key) = result_of {
+                                let why = format!("result refused: {}", status.message());
+                                self.shared.with(true, |s| s.refused(self.id, key, &why));
+                            }
                             let reason = format!("refused: {}", status.message());
                             let _ = self.tx.send(Err(status)).await;
                             break reason;
