@@ -357,6 +357,12 @@ fn after_a_clean_stop_the_database_file_alone_is_whole() {
         coordinator.log()
     );
     drop(w);
+    // Every worker session is closed, with a reason.
+    let open = strider_tests::sqlite(
+        &db,
+        "SELECT COUNT(*) FROM workers WHERE disconnected_at IS NULL OR left_because IS NULL",
+    );
+    assert_eq!(open.trim(), "0");
     // The log was copied in and emptied: the .db alone, copied elsewhere, is the database.
     let wal = dir.join("clean.db-wal");
     assert!(

@@ -686,15 +686,15 @@ impl Db {
             .collect()
     }
 
-    /// Closes the worker sessions a coordinator that stopped without ending them (killed,
-    /// its node lost) left open: their end is recorded as this start, with the reason.
-    /// Returns how many.
-    pub async fn close_sessions_left_open(&self) -> Result<u64, DbError> {
+    /// Closes the worker sessions still open, ending them now for `reason`: at a start,
+    /// those a coordinator that was killed (or lost its node) left open; at a clean stop,
+    /// those whose workers had not left yet. Returns how many.
+    pub async fn close_sessions_left_open(&self, reason: &str) -> Result<u64, DbError> {
         let done = sqlx::query(
             "UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), \
-             left_because = 'the coordinator stopped first (closed when it started again)' \
-             WHERE disconnected_at IS NULL",
+             left_because = ? WHERE disconnected_at IS NULL",
         )
+        .bind(reason)
         .execute(&self.pool)
         .await?;
         Ok(done.rows_affected())

@@ -114,7 +114,9 @@ pub async fn serve(
     let runs = db.runs().await?;
     let stored = db.pending().await?;
     let next_worker = db.next_worker_id().await?;
-    let left_open = db.close_sessions_left_open().await?;
+    let left_open = db
+        .close_sessions_left_open("the coordinator stopped first (closed when it started again)")
+        .await?;
     if left_open > 0 {
         tracing::info!("{left_open} worker sessions of a coordinator that stopped first closed");
     }
@@ -274,6 +276,14 @@ pub async fn serve(
     if shared.with(false, |s| s.finished()) {
         eprintln!("{}", progress_line(&shared));
         ended = Ended::Finished;
+    }
+    // Sessions whose workers had not left by now end with the coordinator.
+    if let Err(e) = shared
+        .db
+        .close_sessions_left_open("the coordinator stopped")
+        .await
+    {
+        tracing::warn!("closing the worker sessions at exit: {e}");
     }
     // A clean exit leaves the database file whole by itself: the write-ahead log copied
     // in and emptied, so the .db alone can be copied or moved.
