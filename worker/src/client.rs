@@ -374,6 +374,16 @@ async fn session(
             },
             Ok((id, outcome, seconds)) = answers.recv_async() => {
                 running.remove(&(id.run, id.generation, id.number));
+                // A simulation that panicked has no outcome to send: leave the session, so
+                // that the coordinator counts an attempt against the candidate (it fails
+                // after a few workers) and leases the rest elsewhere; then reconnect.
+                let outcome = match outcome {
+                    Ok(o) => o,
+                    Err(why) => {
+                        tracing::error!(run = id.run, candidate = id.number, "the simulation panicked: {why}");
+                        return lost(format!("the simulation of run {} candidate {} panicked: {why}", id.run, id.number));
+                    }
+                };
                 let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
                 if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
                     return lost("the stream closed".into());
@@ -432,6 +442,11 @@ async fn drain(
             next = answers.recv_async() => match next {
                 Ok((id, outcome, seconds)) => {
                     running.remove(&(id.run, id.generation, id.number));
+                    // A panicked trial is handed back (the session is ending anyway).
+                    let Ok(outcome) = outcome else {
+                        let _ = out.send(release(vec![id])).await;
+                        continue;
+                    };
                     let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
                     let _ = out.send(msg(worker_message::Kind::Result(r))).await;
                 }

@@ -32,8 +32,12 @@ pub struct Trial<K> {
     pub answer: flume::Sender<Answer<K>>,
 }
 
-/// A finished trial: its key, outcome and wall time in seconds.
-pub type Answer<K> = (K, Outcome, f64);
+/// A finished trial: its key, its outcome (or what the simulation panicked with) and its
+/// wall time in seconds.
+pub type Answer<K> = (K, Result<Outcome, String>, f64);
+
+/// What a simulation thread runs for each trial.
+pub type Evaluate = fn(&EvalContext, &Genome, Scheme, CandidateSeed) -> Outcome;
 
 /// The simulation threads. Dropping the pool lets them finish the trial in hand and end.
 pub struct SimPool<K> {
@@ -43,6 +47,13 @@ pub struct SimPool<K> {
 impl<K: Send + 'static> SimPool<K> {
     /// Starts `threads` threads named `strider-sim-N`.
     pub fn new(threads: NonZeroUsize) -> std::io::Result<Self> {
+        Self::with(threads, evaluate)
+    }
+
+    /// Starts `threads` threads that run `eval` for each trial. A trial that panics is
+    /// answered with the panic's message and its thread goes on: a lost thread would hold
+    /// its candidate (heartbeated, never answered) until the run hung.
+    pub fn with(threads: NonZeroUsize, eval: Evaluate) -> std::io::Result<Self> {
         let (trials, queue) = flume::unbounded::<Trial<K>>();
         for i in 0..threads.get() {
             let queue = queue.clone();
@@ -51,7 +62,14 @@ impl<K: Send + 'static> SimPool<K> {
                 .spawn(move || {
                     for t in queue.iter() {
                         let start = Instant::now();
-                        let outcome = evaluate(&t.ctx, &t.genome, t.scheme, t.seed);
+                        let outcome =
+                            std::panic::catch_unwind(|| eval(&t.ctx, &t.genome, t.scheme, t.seed))
+                                .map_err(|p| {
+                                    p.downcast_ref::<&str>()
+                                        .map(|s| s.to_string())
+                                        .or_else(|| p.downcast_ref::<String>().cloned())
+                                        .unwrap_or_else(|| "a panic without a message".into())
+                                });
                         let seconds = start.elapsed().as_secs_f64();
                         drop(t.core);
                         let _ = t.answer.send((t.key, outcome, seconds));
@@ -113,9 +131,55 @@ mod tests {
                 Scheme::Static,
                 CandidateSeed::new(1, i as u64),
             );
-            assert_eq!(outcome, expected);
+            assert_eq!(outcome, Ok(expected));
         }
         // Every core was given back.
         assert_eq!(cores.available_permits(), 2);
+    }
+
+    #[tokio::test]
+    async fn a_trial_that_panics_is_answered_with_the_message_and_its_thread_goes_on() {
+        fn panics_on_odd(ctx: &EvalContext, g: &Genome, s: Scheme, seed: CandidateSeed) -> Outcome {
+            if seed.candidate.0 % 2 == 1 {
+                panic!(
+                    "contact manifold overflow in candidate {}",
+                    seed.candidate.0
+                );
+            }
+            evaluate(ctx, g, s, seed)
+        }
+        let ctx = EvalContext::paper();
+        // One thread: if a panic took it, the trials after it would never be answered.
+        let pool = SimPool::with(NonZeroUsize::MIN, panics_on_odd).unwrap();
+        let cores = Arc::new(Semaphore::new(1));
+        let (answer, answers) = flume::unbounded();
+        let genome = Genome::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"),
+        )
+        .unwrap();
+        for i in 0..4u64 {
+            let core = cores.clone().acquire_owned().await.unwrap();
+            pool.run(Trial {
+                key: i,
+                ctx,
+                genome,
+                scheme: Scheme::Static,
+                seed: CandidateSeed::new(1, i),
+                core,
+                answer: answer.clone(),
+            });
+        }
+        for i in 0..4u64 {
+            let (key, outcome, _) = answers.recv_async().await.unwrap();
+            assert_eq!(key, i);
+            match outcome {
+                Err(why) => {
+                    assert_eq!(i % 2, 1);
+                    assert!(why.contains("contact manifold overflow"), "{why}");
+                }
+                Ok(_) => assert_eq!(i % 2, 0),
+            }
+        }
+        assert_eq!(cores.available_permits(), 1);
     }
 }
