@@ -382,7 +382,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let ctx = context(experiment.as_deref())?;
             let threads = threads.unwrap_or_else(default_threads);
-            let survey = Survey::run(&ctx, scheme, seed, count, threads);
+            // A line on stderr every 5 s (or so), with the rate and what is left: a large
+            // survey runs for minutes.
+            let started = std::time::Instant::now();
+            let last = std::sync::Mutex::new(started);
+            let progress = |done: usize| {
+                let Ok(mut last) = last.try_lock() else {
+                    return;
+                };
+                if last.elapsed() < std::time::Duration::from_secs(5) {
+                    return;
+                }
+                *last = std::time::Instant::now();
+                let seconds = started.elapsed().as_secs_f64();
+                let rate = done as f64 / seconds;
+                eprintln!(
+                    "survey: {done} of {count} designs ({:.0} %), {rate:.0}/s, about {:.0} s left",
+                    100.0 * done as f64 / count as f64,
+                    (count - done) as f64 / rate.max(1e-9)
+                );
+            };
+            let survey = Survey::run(&ctx, scheme, seed, count, threads, &progress);
             if let Some(path) = csv {
                 let file = std::fs::File::create(&path)
                     .with_context(|| format!("creating {}", path.display()))?;

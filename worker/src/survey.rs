@@ -526,20 +526,25 @@ pub struct Survey {
 
 impl Survey {
     /// Draws `count` random genomes for `scheme` from `seed` (candidate numbers 0..count, the
-    /// same genomes a run with that seed starts from) and evaluates them.
+    /// same genomes a run with that seed starts from) and evaluates them, calling
+    /// `progress` with the number done after each one (from the simulation threads).
     pub fn run(
         ctx: &EvalContext,
         scheme: Scheme,
         seed: u64,
         count: usize,
         threads: NonZeroUsize,
+        progress: &(dyn Fn(usize) + Sync),
     ) -> Self {
         let candidates: Vec<u64> = (0..count as u64).collect();
+        let done = std::sync::atomic::AtomicUsize::new(0);
         let records = map_batch(&candidates, threads, |&i| {
             let s = CandidateSeed::new(seed, i);
             let genome = Genome::random(scheme, &mut s.rng(Purpose::RandomGenome));
             let outcome = evaluate(ctx, &genome, scheme, s);
-            Record::of(ctx, scheme, i, &genome, &outcome)
+            let record = Record::of(ctx, scheme, i, &genome, &outcome);
+            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+            record
         });
         let brief_distance = ctx.brief.min_speed * ctx.settings.trial_seconds;
         Self::of_records(scheme, seed, brief_distance, records)
