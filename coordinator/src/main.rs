@@ -22,7 +22,7 @@ use strider_coordinator::report::{png, Inputs, RunData};
 use strider_coordinator::service::auth::Secret;
 use strider_coordinator::service::local::run_local;
 use strider_coordinator::service::server::{serve, Backup, Ended, ServeOptions};
-use strider_proto::process::{error_text, UsageError, EXIT_FAILURE, EXIT_USAGE};
+use strider_proto::process::{UsageError, EXIT_FAILURE};
 use strider_worker::batch::default_threads;
 use strider_worker::cli::closed_pipe;
 
@@ -200,14 +200,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         // `export ... | head`: the reader had enough; not an error.
         Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", error_text(e.as_ref()));
-            ExitCode::from(if e.is::<UsageError>() {
-                EXIT_USAGE
-            } else {
-                EXIT_FAILURE
-            })
-        }
+        Err(e) => ExitCode::from(strider_proto::process::report(e.as_ref())),
     }
 }
 

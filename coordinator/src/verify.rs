@@ -9,7 +9,6 @@
 //! done by the command line, which owns the simulator). Plain functions over plain data.
 
 use crate::db::{RunRecord, StoredCandidate, Write};
-use crate::library::{InfeasibleLibrary, Library};
 use crate::scheduler::{Scheduler, WorkerId};
 use std::collections::HashMap;
 use std::collections::HashSet;
@@ -72,16 +71,7 @@ pub fn replay(
     }
     let fresh: Vec<RunRecord> = stored
         .iter()
-        .map(|r| RunRecord {
-            id: r.id,
-            spec: r.spec,
-            generation: 0,
-            initial_passed: 0,
-            next_candidate: 0,
-            finished: false,
-            library: Library::new(),
-            infeasible: InfeasibleLibrary::default(),
-        })
+        .map(|r| RunRecord::new(r.id, r.spec))
         .collect();
     // Nothing expires: leases here are only the replay's bookkeeping.
     let mut s = Scheduler::new(

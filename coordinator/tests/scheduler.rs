@@ -35,16 +35,7 @@ fn fresh(e: &Experiment, max_attempts: u32) -> Scheduler {
         .runs()
         .into_iter()
         .enumerate()
-        .map(|(i, spec)| RunRecord {
-            id: i as i64,
-            spec,
-            generation: 0,
-            initial_passed: 0,
-            next_candidate: 0,
-            finished: false,
-            library: Library::new(),
-            infeasible: InfeasibleLibrary::default(),
-        })
+        .map(|(i, spec)| RunRecord::new(i as i64, spec))
         .collect();
     Scheduler::new(e.clone(), runs, Vec::new(), LEASE, max_attempts)
 }

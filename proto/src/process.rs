@@ -31,6 +31,20 @@ pub fn error_text(e: &(dyn std::error::Error + 'static)) -> String {
     text
 }
 
+/// Prints `e` as `error: ...` on stderr and returns its exit status: [`EXIT_USAGE`] when
+/// a [`UsageError`] is in its chain, [`EXIT_FAILURE`] otherwise.
+pub fn report(e: &(dyn std::error::Error + 'static)) -> u8 {
+    eprintln!("error: {}", error_text(e));
+    let mut cause = Some(e);
+    while let Some(c) = cause {
+        if c.is::<UsageError>() {
+            return EXIT_USAGE;
+        }
+        cause = c.source();
+    }
+    EXIT_FAILURE
+}
+
 /// Exit status of a usage error.
 pub const EXIT_USAGE: u8 = 2;
 /// Exit status of any other error.

@@ -104,24 +104,14 @@ fn real_outcome(a: &v1::Assignment) -> v1::Outcome {
     (&o).into()
 }
 
+/// One number the query returns, read with the sqlite3 shell.
+fn sqlite_count(db: &Path, sql: &str) -> i64 {
+    strider_tests::sqlite(db, sql).trim().parse().unwrap()
+}
+
 /// Results the database holds from workers (sqlite3, the tool a user would open it with):
 /// stored in the current step or applied (candidates settled without a trial have no
 /// statistics), and counted per worker.
-/// One number the query returns, read with the sqlite3 shell.
-fn sqlite_count(db: &Path, sql: &str) -> i64 {
-    let out = Command::new("sqlite3")
-        .arg(db)
-        .arg(sql)
-        .output()
-        .expect("sqlite3 is installed (.ci/run installs it)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).trim().parse().unwrap()
-}
-
 fn results_in(db: &Path) -> (i64, i64) {
     let count = |sql: &str| sqlite_count(db, sql);
     (

@@ -13,7 +13,7 @@ use strider_common::inspect::Inspection;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::StartPose;
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
-use strider_proto::process::{error_text, UsageError, EXIT_FAILURE, EXIT_USAGE};
+use strider_proto::process::{report, UsageError};
 use strider_worker::batch::default_threads;
 use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
@@ -181,14 +181,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // `survey | head`: the reader had enough; not an error.
         Err(e) if strider_worker::cli::closed_pipe(&e) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", error_text(e.as_ref()));
-            ExitCode::from(if e.is::<UsageError>() {
-                EXIT_USAGE
-            } else {
-                EXIT_FAILURE
-            })
-        }
+        Err(e) => ExitCode::from(report(e.as_ref())),
     }
 }
 

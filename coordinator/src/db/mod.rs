@@ -101,6 +101,20 @@ pub struct RunPosition {
 }
 
 impl RunRecord {
+    /// A run that has not begun: no candidate, empty libraries.
+    pub fn new(id: i64, spec: RunSpec) -> Self {
+        Self {
+            id,
+            spec,
+            generation: 0,
+            initial_passed: 0,
+            next_candidate: 0,
+            finished: false,
+            library: Library::new(),
+            infeasible: InfeasibleLibrary::default(),
+        }
+    }
+
     /// `counts` completed with both libraries' figures.
     pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
         self.infeasible
