@@ -105,6 +105,9 @@ impl ConstraintHandling {
     }
 }
 
+/// The default infeasible tournament size (docs/model.md section 16 measures it).
+pub const DEFAULT_INFEASIBLE_TOURNAMENT: u32 = 4;
+
 /// How the search handles the brief: `[search]` in the experiment file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -114,6 +117,9 @@ pub struct SearchSettings {
     /// Under feasible-infeasible, the chance that an offspring's parent comes from the
     /// feasible library (1 while the infeasible one is empty, 0 while the feasible one is).
     pub feasible_parent_share: f64,
+    /// Under feasible-infeasible, an infeasible parent is the nearest the brief of this
+    /// many infeasible elites drawn uniformly (1: uniform, no pressure toward the brief).
+    pub infeasible_tournament: u32,
 }
 
 impl Default for SearchSettings {
@@ -121,6 +127,7 @@ impl Default for SearchSettings {
         Self {
             constraints: ConstraintHandling::FeasibleInfeasible,
             feasible_parent_share: 0.5,
+            infeasible_tournament: DEFAULT_INFEASIBLE_TOURNAMENT,
         }
     }
 }
@@ -310,6 +317,12 @@ impl Experiment {
             self.search.feasible_parent_share,
             0.0,
             1.0,
+        )?;
+        check_int(
+            "search.infeasible_tournament",
+            self.search.infeasible_tournament,
+            1,
+            64,
         )?;
         let b = &self.brief;
         check_real("brief.max_mass", b.max_mass, 0.0, 10_000.0)?;

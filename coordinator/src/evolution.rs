@@ -1,6 +1,7 @@
 //! Where a run's candidates come from (spec sections 4 and 5): random genomes in candidate
-//! order for the initial population, then offspring of parents drawn uniformly from a
-//! library. Each candidate's draws come from its own stream, so a candidate is a pure
+//! order for the initial population, then offspring of parents drawn from the libraries
+//! (uniformly from the feasible one, by tournament on closeness to the brief from the
+//! infeasible one). Each candidate's draws come from its own stream, so a candidate is a pure
 //! function of (run seed, candidate number, the libraries it was bred from).
 
 use crate::library::{InfeasibleLibrary, Library};
@@ -27,6 +28,9 @@ pub enum Parents<'a> {
         infeasible: &'a InfeasibleLibrary,
         /// The feasible library's share of parents.
         share: f64,
+        /// Infeasible parents are the nearest the brief of this many elites drawn
+        /// uniformly (1: uniform).
+        tournament: u32,
     },
 }
 
@@ -42,7 +46,9 @@ pub enum Source {
 impl Parents<'_> {
     /// Draws a parent: under feasible-infeasible search one uniform draw picks the library
     /// (none under the paper's method, so its runs are what they always were), then one
-    /// picks the elite uniformly in cell order. `None` when there is nothing to draw.
+    /// picks a feasible elite uniformly in cell order, or a tournament picks an infeasible
+    /// one: `tournament` uniform draws, the one nearest the brief kept (the first drawn on a
+    /// tie). `None` when there is nothing to draw.
     pub fn draw<R: Rng>(&self, rng: &mut R) -> Option<(Source, Genome)> {
         let source = match *self {
             Parents::Feasible(_) => Source::Feasible,
@@ -50,6 +56,7 @@ impl Parents<'_> {
                 feasible,
                 infeasible,
                 share,
+                ..
             } => {
                 let share = if infeasible.is_empty() {
                     1.0
@@ -72,13 +79,25 @@ impl Parents<'_> {
                 }
                 lib.nth(rng.random_range(0..lib.len()))?.genome
             }
-            (Source::Infeasible, Parents::Both { infeasible, .. }) => {
+            (
+                Source::Infeasible,
+                Parents::Both {
+                    infeasible,
+                    tournament,
+                    ..
+                },
+            ) => {
                 if infeasible.is_empty() {
                     return None;
                 }
-                infeasible
-                    .nth(rng.random_range(0..infeasible.len()))?
-                    .genome
+                let mut best = infeasible.nth(rng.random_range(0..infeasible.len()))?;
+                for _ in 1..tournament {
+                    let other = infeasible.nth(rng.random_range(0..infeasible.len()))?;
+                    if other.standing.beats(&best.standing) {
+                        best = other;
+                    }
+                }
+                best.genome
             }
             (Source::Infeasible, Parents::Feasible(_)) => return None,
         };

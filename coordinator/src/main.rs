@@ -928,8 +928,8 @@ fn check(path: &Path) -> anyhow::Result<()> {
         e.search.constraints.name(),
         match e.search.constraints {
             strider_common::experiment::ConstraintHandling::FeasibleInfeasible => format!(
-                " (feasible and infeasible libraries, {} of parents from the feasible one)",
-                e.search.feasible_parent_share
+                " (feasible and infeasible libraries, {} of parents from the feasible one, infeasible parents by tournament of {})",
+                e.search.feasible_parent_share, e.search.infeasible_tournament
             ),
             strider_common::experiment::ConstraintHandling::Reject => {
                 " (designs that miss the brief are dropped; the initial population is drawn until that many pass)".into()

@@ -584,6 +584,7 @@ impl Scheduler {
                 feasible: &record.library,
                 infeasible: &record.infeasible,
                 share: self.experiment.search.feasible_parent_share,
+                tournament: self.experiment.search.infeasible_tournament,
             },
         };
         let genomes: Vec<Genome> = (first..first + count)

@@ -1,11 +1,25 @@
-//! A database made by the build before feasible-infeasible search (schema 0002, a run of
-//! the paper's method killed at generation 2 of 6: `tests/fixtures/pre-0003.sql`, dumped
-//! with `sqlite3 .dump`) opens with today's build: migration 0003 fills in every stored
-//! candidate's shortfall, names the method the experiment was started with, and the run
-//! resumes with it to the end.
+//! Databases made by older builds open with today's build and resume as they began:
+//! before feasible-infeasible search (schema 0002, a run of the paper's method killed at
+//! generation 2 of 6: `tests/fixtures/pre-0003.sql`, dumped with `sqlite3 .dump`),
+//! migration 0003 fills in every stored candidate's shortfall and names the method the
+//! experiment was started with; before infeasible tournaments (schema 0003, killed at
+//! generation 3 of 10: `tests/fixtures/pre-0004.sql`), migration 0004 names the uniform
+//! selection it drew infeasible parents with.
 
 use std::process::Command;
 use strider_tests::{export, installed, run_ok, skip_without, temp_dir, workspace_root};
+
+fn load(dump: &str, dir: &std::path::Path) -> std::path::PathBuf {
+    let db = dir.join("old.db");
+    let dump = workspace_root().join("tests/fixtures").join(dump);
+    let loaded = Command::new("sqlite3")
+        .arg(&db)
+        .arg(format!(".read {}", dump.display()))
+        .status()
+        .unwrap();
+    assert!(loaded.success());
+    db
+}
 
 fn sql(db: &std::path::Path, query: &str) -> String {
     let out = Command::new("sqlite3")
@@ -26,15 +40,8 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     if !installed("sqlite3") {
         return skip_without("sqlite3 (apt-get install sqlite3)");
     }
-    let dir = temp_dir("migration");
-    let db = dir.join("old.db");
-    let dump = workspace_root().join("tests/fixtures/pre-0003.sql");
-    let loaded = Command::new("sqlite3")
-        .arg(&db)
-        .arg(format!(".read {}", dump.display()))
-        .status()
-        .unwrap();
-    assert!(loaded.success());
+    let dir = temp_dir("migration-0003");
+    let db = load("pre-0003.sql", &dir);
     assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "2");
     let before = sql(&db, "SELECT COUNT(*) FROM candidates");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "2|0");
@@ -46,7 +53,7 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0003`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "3");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "4");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "6|1");
 
     // The stored experiment says how it began: the paper's method.
@@ -76,6 +83,72 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     assert_eq!(run["finished"], true);
     assert!(!run["elites"].as_array().unwrap().is_empty());
     assert!(run["infeasible"].as_array().unwrap().is_empty());
+    assert_eq!(sql(&db, "PRAGMA integrity_check"), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_database_made_before_migration_0004_resumes_with_uniform_infeasible_parents() {
+    if !installed("sqlite3") {
+        return skip_without("sqlite3 (apt-get install sqlite3)");
+    }
+    let dir = temp_dir("migration-0004");
+    let db = load("pre-0004.sql", &dir);
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "3");
+    assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "3|0");
+    assert!(!sql(&db, "SELECT definition FROM experiment").contains("infeasible_tournament"));
+
+    let out = run_ok(
+        "strider-coordinator",
+        &["run", "--db", db.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("resuming experiment `pre-0004`"), "{err}");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "4");
+    assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "10|1");
+    let definition = sql(&db, "SELECT definition FROM experiment");
+    assert!(
+        definition.contains("[search]\ninfeasible_tournament = 1\n"),
+        "{definition}"
+    );
+
+    // It ends where the same experiment run whole with uniform infeasible parents ends
+    // (the fixture's file says so), and not where today's default would have taken it.
+    let fixture = workspace_root().join("tests/fixtures/pre-0004.toml");
+    let whole = dir.join("whole.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            fixture.to_str().unwrap(),
+            "--db",
+            whole.to_str().unwrap(),
+        ],
+    );
+    let default_file = dir.join("default.toml");
+    let text = std::fs::read_to_string(&fixture).unwrap();
+    std::fs::write(
+        &default_file,
+        text.replace("infeasible_tournament = 1\n", ""),
+    )
+    .unwrap();
+    let default = dir.join("default.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            default_file.to_str().unwrap(),
+            "--db",
+            default.to_str().unwrap(),
+        ],
+    );
+    let libraries = |db: &std::path::Path| {
+        let run = &export(db)["runs"][0];
+        (run["elites"].clone(), run["infeasible"].clone())
+    };
+    let resumed = libraries(&db);
+    assert_eq!(resumed, libraries(&whole));
+    assert_ne!(resumed, libraries(&default));
     assert_eq!(sql(&db, "PRAGMA integrity_check"), "ok");
     std::fs::remove_dir_all(&dir).unwrap();
 }
