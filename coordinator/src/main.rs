@@ -519,18 +519,24 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "experiment": p.experiment, "workers_connected": p.workers_connected,
-                "trials_per_second": p.trials_per_second, "runs": runs,
+                "trials_per_second": p.trials_per_second, "fraction_done": p.fraction_done,
+                "eta_seconds": p.eta_seconds, "runs": runs,
             }))?
         );
         return Ok(());
     }
     outln!(
-        "experiment `{}`: {} workers connected, {:.1} trials/s over the last minute",
+        "experiment `{}`: {} workers connected, {:.1} trials/s over the last minute; {:.1} % done{}",
         p.experiment,
         p.workers_connected,
-        p.trials_per_second
+        p.trials_per_second,
+        100.0 * p.fraction_done,
+        match p.eta_seconds {
+            Some(s) => format!(", about {} left", strider_proto::process::duration_words(s)),
+            None => String::new(),
+        }
     );
-    outln!("run  scheme   repeat  generation        initial  trials    pending  feasible  infeasible only  coverage  best      mean      QD score");
+    outln!("run  scheme   repeat  generation        initial  candidates pending  feasible  infeasible only  coverage  best      mean      QD score");
     for r in &p.runs {
         let scheme = strider_proto::convert::scheme_from_wire(r.scheme)
             .map(|s| s.name())
@@ -541,7 +547,7 @@ async fn status(url: &str, secret: &Secret, json: bool) -> anyhow::Result<()> {
             format!("{}/{}", r.generation, r.generations)
         };
         outln!(
-            "{:<4} {:<8} {:<7} {:<17} {:<8} {:<9} {:<8} {:<9} {:<16} {:<9} {:<9.4} {:<9.4} {:.2}",
+            "{:<4} {:<8} {:<7} {:<17} {:<8} {:<10} {:<8} {:<9} {:<16} {:<9} {:<9.4} {:<9.4} {:.2}",
             r.run,
             scheme,
             r.repeat,

@@ -16,7 +16,7 @@ use crate::evolution::{initial_candidate, offspring, Parents};
 use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
-use strider_common::experiment::ConstraintHandling;
+use strider_common::experiment::{ConstraintHandling, RunSettings};
 use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
 use strider_common::{
     BodyPlan, CellIndex, Experiment, Features, Genome, InvalidReason, Outcome, Scheme, Standing,
@@ -145,7 +145,8 @@ pub struct RunProgress {
     /// Candidates of the initial population that count toward its size (valid ones under
     /// the paper's method; simulated ones under feasible-infeasible search).
     pub initial_passed: u32,
-    /// Candidates evaluated (applied or with a result in hand).
+    /// Candidates settled (applied or with a result in hand): simulated, or refused by the
+    /// checks before simulating.
     pub trials_done: u64,
     /// Candidates of the current step still waiting or leased.
     pub trials_pending: u64,
@@ -153,6 +154,29 @@ pub struct RunProgress {
     pub library: GenerationStats,
     /// Whether the run is finished.
     pub finished: bool,
+}
+
+/// How much of an experiment is done, 0 to 1: each run's initial designs counted and
+/// generations completed, over its budget (`initial_population` + `generations` x
+/// `offspring_per_generation` candidates).
+pub fn fraction_done(runs: &[RunProgress], settings: &RunSettings) -> f64 {
+    let initial = u64::from(settings.initial_population);
+    let offspring = u64::from(settings.offspring_per_generation);
+    let budget = initial + u64::from(settings.generations) * offspring;
+    if runs.is_empty() || budget == 0 {
+        return 1.0;
+    }
+    let done: u64 = runs
+        .iter()
+        .map(|r| {
+            if r.finished {
+                budget
+            } else {
+                u64::from(r.initial_passed).min(initial) + u64::from(r.generation) * offspring
+            }
+        })
+        .sum();
+    (done as f64 / (budget * runs.len() as u64) as f64).min(1.0)
 }
 
 /// Every run of an experiment being served.

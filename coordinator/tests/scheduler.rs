@@ -8,7 +8,7 @@ use strider_common::{Experiment, InvalidReason, Outcome};
 use strider_coordinator::db::{RunRecord, Write};
 use strider_coordinator::library::{InfeasibleLibrary, Library};
 use strider_coordinator::scheduler::{
-    Accepted, Assignment, CandidateKey, Refusal, Scheduler, WorkerId,
+    fraction_done, Accepted, Assignment, CandidateKey, Refusal, RunProgress, Scheduler, WorkerId,
 };
 use strider_worker::evaluate::EvalContext;
 use strider_worker::synthetic::instant_outcome;
@@ -493,4 +493,42 @@ fn a_result_refused_every_time_fails_its_candidate() {
         s.disconnect(WorkerId(w), "refused");
     }
     assert!(failed_in(&s.take_writes(), victim.key));
+}
+
+#[test]
+fn the_fraction_done_counts_initial_designs_and_generations_over_the_budget() {
+    let e = experiment();
+    // Budget per run: 6 initial designs + 5 generations x 10 = 56 candidates.
+    let at = |initial_passed, generation, finished| RunProgress {
+        run: 0,
+        scheme: strider_common::Scheme::Static,
+        repeat: 0,
+        seed: strider_common::rng::RunSeed(1),
+        generation,
+        initial_passed,
+        trials_done: 0,
+        trials_pending: 0,
+        library: Default::default(),
+        finished,
+    };
+    let runs = [at(3, 0, false), at(6, 2, false), at(6, 5, true)];
+    let got = fraction_done(&runs, &e.run);
+    assert!((got - (3.0 + 26.0 + 56.0) / 168.0).abs() < 1e-12, "{got}");
+    assert_eq!(fraction_done(&[], &e.run), 1.0);
+
+    // A real run climbs from 0 to 1 and never goes back.
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let mut seen = vec![fraction_done(&s.progress(), &e.run)];
+    while !s.finished() {
+        for a in s.lease(WorkerId(0), now, 4) {
+            let o = outcome_of(&e, &a);
+            s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
+        }
+        seen.push(fraction_done(&s.progress(), &e.run));
+    }
+    assert_eq!(seen[0], 0.0);
+    assert_eq!(*seen.last().unwrap(), 1.0);
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    assert!(seen.iter().any(|&f| f > 0.3 && f < 0.7), "{seen:?}");
 }

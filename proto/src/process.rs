@@ -91,3 +91,33 @@ pub fn init_logs() -> Result<(), String> {
         .try_init();
     Ok(())
 }
+
+/// A duration for people: `40 s`, `12 min`, `3 h 05 min`.
+pub fn duration_words(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    match s {
+        0..=89 => format!("{s} s"),
+        90..=5399 => format!("{} min", (s + 30) / 60),
+        _ => {
+            let minutes = (s + 30) / 60;
+            format!("{} h {:02} min", minutes / 60, minutes % 60)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::duration_words;
+
+    #[test]
+    fn durations_read_as_seconds_minutes_or_hours() {
+        assert_eq!(duration_words(-3.0), "0 s");
+        assert_eq!(duration_words(40.4), "40 s");
+        assert_eq!(duration_words(89.0), "89 s");
+        assert_eq!(duration_words(90.0), "2 min");
+        assert_eq!(duration_words(719.0), "12 min");
+        assert_eq!(duration_words(5399.0), "90 min");
+        assert_eq!(duration_words(5400.0), "1 h 30 min");
+        assert_eq!(duration_words(11_100.0), "3 h 05 min");
+    }
+}

@@ -348,6 +348,8 @@ fn ctrl_c_and_sigterm_stop_run_honestly_and_the_next_run_finishes_the_same_libra
             std::time::Duration::from_secs(300),
         );
         assert!(!p.log().contains("generation 20/20"), "{}", p.log());
+        // Progress says how much is done (and, once it can tell, the time left).
+        assert!(p.log().contains("% done"), "{}", p.log());
         p.signal(signal);
         let got = p.wait_exit(std::time::Duration::from_secs(60));
         // Not "finished", and not 0: a script can tell a stopped run from a done one.

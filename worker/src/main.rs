@@ -390,9 +390,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let seconds = started.elapsed().as_secs_f64();
                 let rate = done as f64 / seconds;
                 eprintln!(
-                    "survey: {done} of {count} designs ({:.0} %), {rate:.0}/s, about {:.0} s left",
+                    "survey: {done} of {count} designs ({:.0} %), {rate:.0}/s, about {} left",
                     100.0 * done as f64 / count as f64,
-                    (count - done) as f64 / rate.max(1e-9)
+                    strider_proto::process::duration_words((count - done) as f64 / rate.max(1e-9))
                 );
             };
             let survey = Survey::run(&ctx, scheme, seed, count, threads, &progress);

@@ -78,8 +78,15 @@ fn db_error(e: crate::db::DbError) -> Status {
 
 /// Progress now, as sent on the wire.
 pub fn progress(shared: &Shared) -> v1::Progress {
-    let (name, runs) = shared.with(false, |s| (s.experiment().name.clone(), s.progress()));
-    let generations = shared.with(false, |s| s.experiment().run.generations);
+    let (name, runs, settings) = shared.with(false, |s| {
+        (
+            s.experiment().name.clone(),
+            s.progress(),
+            s.experiment().run,
+        )
+    });
+    let generations = settings.generations;
+    let fraction_done = crate::scheduler::fraction_done(&runs, &settings);
     v1::Progress {
         experiment: name,
         runs: runs
@@ -110,6 +117,8 @@ pub fn progress(shared: &Shared) -> v1::Progress {
             .lock()
             .expect("no panic while counting")
             .rate(shared.uptime()),
+        fraction_done,
+        eta_seconds: shared.eta(fraction_done),
     }
 }
 

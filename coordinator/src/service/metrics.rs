@@ -103,6 +103,22 @@ pub fn render(p: &v1::Progress, results_total: u64) -> String {
         "Worker connections now.",
     );
     let _ = writeln!(out, "strider_workers_connected {}", p.workers_connected);
+    head(
+        &mut out,
+        "fraction_done",
+        "gauge",
+        "Share of every run's candidates done (initial population and generations), 0 to 1.",
+    );
+    let _ = writeln!(out, "strider_fraction_done {}", p.fraction_done);
+    if let Some(eta) = p.eta_seconds {
+        head(
+            &mut out,
+            "eta_seconds",
+            "gauge",
+            "Estimated seconds to the end of the experiment, at this coordinator's pace so far.",
+        );
+        let _ = writeln!(out, "strider_eta_seconds {eta}");
+    }
     for (name, kind, help, value) in run_families {
         head(&mut out, name, kind, help);
         for r in &p.runs {
@@ -190,8 +206,12 @@ mod tests {
             runs: vec![run(0, v1::Scheme::Static), run(1, v1::Scheme::Es)],
             workers_connected: 3,
             trials_per_second: 12.5,
+            fraction_done: 0.5,
+            eta_seconds: Some(60.0),
         };
         let text = render(&p, 1234);
+        assert!(text.contains("\nstrider_fraction_done 0.5\n"), "{text}");
+        assert!(text.contains("\nstrider_eta_seconds 60\n"), "{text}");
         assert!(text.contains("\nstrider_results_total 1234\n"), "{text}");
         assert!(text.contains("\nstrider_workers_connected 3\n"), "{text}");
         assert!(

@@ -116,6 +116,8 @@ pub struct Shared {
     next_worker: AtomicU64,
     throughput: Mutex<Throughput>,
     started: Instant,
+    /// How much of the experiment was done when this process began serving it.
+    start_fraction: std::sync::OnceLock<f64>,
     experiment_toml: String,
     db: crate::db::Db,
 }
@@ -162,5 +164,24 @@ impl Shared {
     /// Seconds since the service started.
     pub fn uptime(&self) -> f64 {
         self.started.elapsed().as_secs_f64()
+    }
+
+    /// How much of the experiment is done, 0 to 1 ([`crate::scheduler::fraction_done`]).
+    pub fn fraction_done(&self) -> f64 {
+        self.with(false, |s| {
+            crate::scheduler::fraction_done(&s.progress(), &s.experiment().run)
+        })
+    }
+
+    /// Seconds left at this process's pace so far, once it has done some of the work:
+    /// an estimate (an ES generation costs more than a STATIC one, a late generation of
+    /// walkers more than an early one of fallers).
+    pub fn eta(&self, fraction: f64) -> Option<f64> {
+        if fraction >= 1.0 {
+            return Some(0.0);
+        }
+        let start = *self.start_fraction.get()?;
+        let (done, seconds) = (fraction - start, self.uptime());
+        (done > 0.0 && seconds >= 5.0).then(|| seconds * (1.0 - fraction) / done)
     }
 }

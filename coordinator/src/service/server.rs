@@ -18,6 +18,8 @@ use std::sync::atomic::{AtomicU32, AtomicU64};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strider_common::Experiment;
+use strider_proto::process::duration_words;
+use strider_proto::v1;
 use strider_proto::v1::client_service_server::ClientServiceServer;
 use strider_proto::v1::worker_service_server::WorkerServiceServer;
 use tokio::net::TcpListener;
@@ -141,11 +143,14 @@ pub async fn serve(
         next_worker: AtomicU64::new(next_worker),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
+        start_fraction: std::sync::OnceLock::new(),
         experiment_toml: canonical_toml(&experiment),
         db,
     });
     // Store what opening the steps wrote (draws settled without a trial, new generations).
     shared.with(true, |_| ());
+    // Where this process began, for its estimate of the time left.
+    let _ = shared.start_fraction.set(shared.fraction_done());
 
     let addr = listener.local_addr()?;
     let url = worker_url(addr);
@@ -385,16 +390,29 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
     tasks
 }
 
-/// One line of progress: throughput, workers, and each run's state.
+/// Above this many runs, the progress line sums them up instead of listing each.
+const RUNS_LISTED: usize = 6;
+
+/// One line of progress: throughput, workers, how much is done and the time left, and each
+/// run's state (summed up for a large experiment).
 pub fn progress_line(shared: &Shared) -> String {
     let p = progress(shared);
+    let left = match p.eta_seconds {
+        Some(s) => format!(", about {} left", duration_words(s)),
+        None => String::new(),
+    };
     let mut line = format!(
-        "[{:7.1} s] {:.1} results/s, {} workers",
+        "[{:7.1} s] {:.1} results/s, {} workers, {:.1} % done{left}",
         shared.uptime(),
         p.trials_per_second,
-        p.workers_connected
+        p.workers_connected,
+        100.0 * p.fraction_done,
     );
     let initial = shared.with(false, |s| s.experiment().run.initial_population);
+    if p.runs.len() > RUNS_LISTED {
+        line.push_str(&runs_summary(&p.runs, initial));
+        return line;
+    }
     for r in &p.runs {
         let phase = if r.finished {
             "finished".to_string()
@@ -404,12 +422,68 @@ pub fn progress_line(shared: &Shared) -> String {
             format!("generation {}/{}", r.generation, r.generations)
         };
         line.push_str(&format!(
-            " | run {}: {phase}, {} trials, coverage {:.2} %, best {:.4}",
+            " | run {}: {phase}, {} candidates, feasible cells {} ({:.2} %), infeasible-only {}, best {:.4}",
             r.run,
             r.trials_done,
+            r.feasible_elites,
             100.0 * r.coverage,
+            r.infeasible_only,
             r.best_fitness
         ));
     }
     line
+}
+
+/// Many runs in a few figures: how many are finished, the range of their generations,
+/// feasible cells (least, mean, most) and the best fitness of any.
+fn runs_summary(runs: &[v1::RunProgress], initial: u32) -> String {
+    let finished = runs.iter().filter(|r| r.finished).count();
+    let drawing = runs
+        .iter()
+        .filter(|r| !r.finished && r.initial_passed < initial)
+        .count();
+    let generations = runs.iter().map(|r| r.generation);
+    let (low, high) = (
+        generations.clone().min().unwrap_or(0),
+        generations.max().unwrap_or(0),
+    );
+    let cells = runs.iter().map(|r| r.feasible_elites);
+    let mean = f64::from(cells.clone().sum::<u32>()) / runs.len() as f64;
+    let best = runs.iter().map(|r| r.best_fitness).fold(0.0_f64, f64::max);
+    format!(
+        " | {} runs: {finished} finished, {drawing} drawing initial designs, generations {low}-{high} of {}; feasible cells {}-{} (mean {mean:.0}); best {best:.4}",
+        runs.len(),
+        runs[0].generations,
+        cells.clone().min().unwrap_or(0),
+        cells.max().unwrap_or(0),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn many_runs_are_summed_up_in_a_few_figures() {
+        let run = |generation, feasible_elites, finished, best_fitness| v1::RunProgress {
+            generation,
+            generations: 300,
+            initial_passed: if generation > 0 { 400 } else { 17 },
+            feasible_elites,
+            finished,
+            best_fitness,
+            ..Default::default()
+        };
+        let runs = [
+            run(0, 0, false, 0.0),
+            run(120, 40, false, 2.5),
+            run(300, 200, true, 3.25),
+            run(150, 60, false, 1.0),
+        ];
+        assert_eq!(
+            runs_summary(&runs, 400),
+            " | 4 runs: 1 finished, 1 drawing initial designs, generations 0-300 of 300; \
+             feasible cells 0-200 (mean 75); best 3.2500"
+        );
+    }
 }
