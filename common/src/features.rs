@@ -18,6 +18,9 @@ pub const FEATURE_NAMES: [&str; FEATURE_COUNT] = [
     "width_mult",
 ];
 
+/// Feature units, d1 first ("" for a count or a multiplier).
+pub const FEATURE_UNITS: [&str; FEATURE_COUNT] = ["m", "kg", "", "m", "", ""];
+
 /// Feature values d1..d6 of one design.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Features(pub [f64; FEATURE_COUNT]);

@@ -119,6 +119,21 @@ fn a_planted_linear_relation_is_recovered() {
         assert!((a * range).abs() < 0.005, "d{} coefficient {a}", j + 1);
     }
     assert!(first.mean_error < 0.001, "{}", first.mean_error);
+    // As a plain linear model (the rules CSV): intercept about 2.4 - 20 x 0.0055 = 2.29,
+    // and it predicts exactly what the rule does.
+    let (intercept, coefficients) = first.linear();
+    assert_eq!(coefficients[0], 0.0);
+    assert!(close(coefficients[3], 20.0, 0.01), "{coefficients:?}");
+    assert!((intercept - 2.29).abs() < 0.01, "{intercept}");
+    for g in &designs[..50] {
+        let linear = intercept + (0..6).map(|j| coefficients[j] * g[j]).sum::<f64>();
+        assert!((linear - first.predict(g)).abs() < 1e-9);
+    }
+    // Named one way throughout: by feature name, never by d-number.
+    let text = first.to_string();
+    assert!(text.starts_with("total_leg_length = "), "{text}");
+    assert!(text.contains("(wall_thickness - "), "{text}");
+    assert!(!text.contains("(d"), "{text}");
 }
 
 #[test]

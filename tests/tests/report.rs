@@ -55,6 +55,8 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     // Pictures: the four curves, the library map, the pair maps, and drawings.
     let figures = attribute_values(&html, "figure id");
     for name in [
+        "qd_score",
+        "qd_score_by_evaluations",
         "best_fitness",
         "mean_fitness",
         "lowest_fitness",
@@ -95,8 +97,41 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     );
     assert_eq!(table5.lines().count(), 3, "{table5}");
     let gens = std::fs::read_to_string(pages.join("per_generation.csv")).unwrap();
-    // 2 schemes x 4 figures x generations 0..=8.
-    assert_eq!(gens.lines().count(), 1 + 2 * 4 * 9, "{gens}");
+    // 2 schemes x 5 figures x generations 0..=8.
+    assert_eq!(gens.lines().count(), 1 + 2 * 5 * 9, "{gens}");
+    assert!(
+        gens.starts_with("scheme,figure,generation,evaluations,mean,sd\n"),
+        "{gens}"
+    );
+    assert!(gens.contains("\nstatic,qd_score,0,"), "{gens}");
+    // Numbers in the CSVs are numbers, whole: p-values and rule coefficients parse.
+    for line in mw.lines().skip(1) {
+        let p: f64 = line.split(',').nth(3).unwrap().parse().unwrap();
+        assert!((0.0..=1.0).contains(&p), "{line}");
+    }
+    let rules = std::fs::read_to_string(pages.join("design_rules.csv")).unwrap();
+    assert!(
+        rules.starts_with(
+            "scheme,designs,kept,target,intercept,coef_total_leg_length,coef_total_mass,"
+        ),
+        "{rules}"
+    );
+    for line in rules.lines().skip(1) {
+        let fields: Vec<&str> = line.split(',').collect();
+        assert_eq!(fields.len(), 13, "{line}");
+        for f in fields[4..].iter().filter(|f| !f.is_empty()) {
+            f.parse::<f64>()
+                .unwrap_or_else(|_| panic!("{f} in {line} is not a number"));
+        }
+    }
+    // Maps: edge bins open, units on the axes, and the colour scale says how it was set.
+    let map = std::fs::read_to_string(pages.join("library_map.svg")).unwrap();
+    assert!(
+        map.contains("&lt; 55 kg") && map.contains("≥ 70 kg"),
+        "{map}"
+    );
+    assert!(map.contains("d2 total_mass (kg)"), "{map}");
+    assert!(map.contains("linear"), "{map}");
     assert!(html.contains("The red ring marks MAX"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -40,6 +40,20 @@ impl Rule {
     }
 }
 
+impl Rule {
+    /// The rule as a plain linear model: (intercept, coefficient of each feature), so that
+    /// target = intercept + sum over j of coefficient_j x d_j (the target's own is 0).
+    pub fn linear(&self) -> (f64, [f64; FEATURE_COUNT]) {
+        let mut coefficients = [0.0; FEATURE_COUNT];
+        let mut intercept = self.means[self.target];
+        for &(j, a) in &self.terms {
+            coefficients[j] = a;
+            intercept -= a * self.means[j];
+        }
+        (intercept, coefficients)
+    }
+}
+
 impl fmt::Display for Rule {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let k = self.target;
@@ -52,7 +66,12 @@ impl fmt::Display for Rule {
             } else {
                 ('-', self.means[j])
             };
-            write!(f, " {sign} {:.3e} (d{} {op} {m:.4})", a.abs(), j + 1)?;
+            write!(
+                f,
+                " {sign} {:.3e} ({} {op} {m:.4})",
+                a.abs(),
+                FEATURE_NAMES[j]
+            )?;
         }
         write!(f, "   [mean error {:.1} %]", 100.0 * self.mean_error)
     }

@@ -5,6 +5,7 @@ use super::svg::{document, text, ticks, vertical_text};
 use std::fmt::Write;
 
 /// One scheme's curve: per generation, mean and standard deviation over repeats.
+#[derive(Clone, Debug)]
 pub struct Series {
     /// Legend name.
     pub name: String,
@@ -24,8 +25,8 @@ const RIGHT: f64 = 20.0;
 const TOP: f64 = 36.0;
 const BOTTOM: f64 = 50.0;
 
-/// A chart titled `title` of `series` against generation, y axis labelled `y_label`.
-pub fn line_chart(title: &str, y_label: &str, series: &[Series]) -> String {
+/// A chart titled `title` of `series`, axes labelled `x_label` and `y_label`.
+pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
     let pts = series.iter().flat_map(|s| &s.points);
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
@@ -79,14 +80,7 @@ pub fn line_chart(title: &str, y_label: &str, series: &[Series]) -> String {
         b,
         r##"<rect x="{LEFT}" y="{TOP}" width="{pw:.1}" height="{ph:.1}" fill="none" stroke="#333"/>"##
     );
-    text(
-        &mut b,
-        LEFT + pw / 2.0,
-        H - 12.0,
-        12.0,
-        "middle",
-        "generation",
-    );
+    text(&mut b, LEFT + pw / 2.0, H - 12.0, 12.0, "middle", x_label);
     vertical_text(&mut b, 16.0, TOP + ph / 2.0, 12.0, y_label);
     for (k, s) in series.iter().enumerate() {
         if s.points.is_empty() {

@@ -5,7 +5,7 @@
 use super::svg::{colour, colour_bar, document, text, vertical_text, EMPTY};
 use crate::library::{InfeasibleLibrary, Library};
 use std::fmt::Write;
-use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
+use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES, FEATURE_UNITS};
 use strider_common::{CellIndex, FeatureGrid, Shortfall, Standing};
 
 /// A fixed fitness scale for every map of a report, so colours compare across pictures.
@@ -13,14 +13,48 @@ use strider_common::{CellIndex, FeatureGrid, Shortfall, Standing};
 pub struct Scale {
     /// Fitness drawn darkest.
     pub lo: f64,
-    /// Fitness drawn brightest.
+    /// Fitness drawn brightest (and everything above it).
     pub hi: f64,
+    /// The highest fitness drawn, when above `hi`.
+    pub max: f64,
 }
 
+/// The quantile of fitness the colours top out at: one outlier (30.5 against a median of
+/// 2.0) drew every other cell in the same dark colour on a linear scale up to the maximum.
+pub const TOP_QUANTILE: f64 = 0.95;
+
 impl Scale {
+    /// From 0 to the [`TOP_QUANTILE`] of `fitness` (nearest rank), noting the maximum.
+    pub fn robust(fitness: impl IntoIterator<Item = f64>) -> Self {
+        let mut v: Vec<f64> = fitness.into_iter().filter(|f| f.is_finite()).collect();
+        v.sort_by(f64::total_cmp);
+        let max = v.last().copied().unwrap_or(0.0);
+        let hi = if v.is_empty() {
+            0.0
+        } else {
+            let rank = (TOP_QUANTILE * v.len() as f64).ceil() as usize;
+            v[rank.clamp(1, v.len()) - 1]
+        };
+        Scale { lo: 0.0, hi, max }
+    }
+
+    /// The colour bar's note: how the top of the scale was chosen.
+    fn note(&self) -> String {
+        if self.max > self.hi {
+            format!(
+                "linear; colours top out at the {:.0}th percentile of fitness ({:.2}); the best is {:.2}",
+                100.0 * TOP_QUANTILE,
+                self.hi,
+                self.max
+            )
+        } else {
+            "linear, up to the best fitness".into()
+        }
+    }
+
     fn t(&self, f: f64) -> f64 {
         if self.hi > self.lo {
-            (f - self.lo) / (self.hi - self.lo)
+            ((f - self.lo) / (self.hi - self.lo)).clamp(0.0, 1.0)
         } else {
             1.0
         }
@@ -38,11 +72,33 @@ const CELL: f64 = 5.0;
 const LEFT: f64 = 120.0;
 const TOP: f64 = 50.0;
 
+/// A bin's range with its unit; the edge bins are open, since values outside the window
+/// go to them (the first bin of total_mass holds designs under 50 kg too: "< 55 kg").
 fn bin_label(grid: &FeatureGrid, feature: usize, bin: u32) -> String {
     let r = grid.ranges()[feature];
     let w = (r.max - r.min) / f64::from(grid.bins);
     let lo = r.min + w * f64::from(bin);
-    format!("{}–{}", short(lo), short(lo + w))
+    let unit = match FEATURE_UNITS[feature] {
+        "" => String::new(),
+        u => format!(" {u}"),
+    };
+    if grid.bins == 1 {
+        "all".into()
+    } else if bin == 0 {
+        format!("< {}{unit}", short(lo + w))
+    } else if bin + 1 == grid.bins {
+        format!("≥ {}{unit}", short(lo))
+    } else {
+        format!("{}–{}{unit}", short(lo), short(lo + w))
+    }
+}
+
+/// A feature's axis title: its d-number, name and unit.
+fn axis_title(feature: usize) -> String {
+    match FEATURE_UNITS[feature] {
+        "" => format!("d{} {}", feature + 1, FEATURE_NAMES[feature]),
+        u => format!("d{} {} ({u})", feature + 1, FEATURE_NAMES[feature]),
+    }
 }
 
 fn short(v: f64) -> String {
@@ -71,7 +127,15 @@ pub fn stacking_svg(
         .elites()
         .map(|(cell, e)| (cell, colour(scale.t(e.fitness))));
     let side = stack(&mut s, grid, painted, marked, title);
-    colour_bar(&mut s, LEFT, TOP + side + 50.0, 300.0, scale.lo, scale.hi);
+    colour_bar(
+        &mut s,
+        LEFT,
+        TOP + side + 50.0,
+        300.0,
+        scale.lo,
+        scale.hi,
+        &scale.note(),
+    );
     document(LEFT + side + 30.0, TOP + side + 100.0, &s)
 }
 
@@ -222,8 +286,10 @@ fn stack(
         12.0,
         "middle",
         &format!(
-            "across: d1 {} (blocks) › d3 {} › d5 {} (innermost)",
-            FEATURE_NAMES[0], FEATURE_NAMES[2], FEATURE_NAMES[4]
+            "across: {} (blocks) › {} › {} (innermost)",
+            axis_title(0),
+            axis_title(2),
+            axis_title(4)
         ),
     );
     vertical_text(
@@ -232,8 +298,10 @@ fn stack(
         TOP + side / 2.0,
         12.0,
         &format!(
-            "up: d2 {} (blocks) › d4 {} › d6 {} (innermost)",
-            FEATURE_NAMES[1], FEATURE_NAMES[3], FEATURE_NAMES[5]
+            "up: {} (blocks) › {} › {} (innermost)",
+            axis_title(1),
+            axis_title(3),
+            axis_title(5)
         ),
     );
     if let Some((cell, name)) = marked {
@@ -285,7 +353,15 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
             })
             .collect()
     });
-    colour_bar(&mut s, 50.0, height, 300.0, scale.lo, scale.hi);
+    colour_bar(
+        &mut s,
+        50.0,
+        height,
+        300.0,
+        scale.lo,
+        scale.hi,
+        &scale.note(),
+    );
     document(
         50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
         height + 40.0,
@@ -372,14 +448,14 @@ fn pair_maps(
             oy + map + 14.0,
             10.0,
             "middle",
-            &format!("d{} {} →", i + 1, FEATURE_NAMES[i]),
+            &format!("{} →", axis_title(i)),
         );
         vertical_text(
             s,
             ox - 8.0,
             oy + map / 2.0,
             10.0,
-            &format!("d{} {} →", j + 1, FEATURE_NAMES[j]),
+            &format!("{} →", axis_title(j)),
         );
     }
     50.0 + 3.0 * gap_y + 10.0
@@ -388,6 +464,37 @@ fn pair_maps(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn edge_bins_are_open_and_every_label_has_its_unit() {
+        let grid = FeatureGrid::default();
+        // total_mass: 5 bins over 50 to 75 kg; designs under 50 kg go to the first.
+        let labels: Vec<String> = (0..5).map(|b| bin_label(&grid, 1, b)).collect();
+        assert_eq!(
+            labels,
+            ["< 55 kg", "55–60 kg", "60–65 kg", "65–70 kg", "≥ 70 kg"]
+        );
+        assert_eq!(bin_label(&grid, 0, 1), "2.16–2.32 m");
+        assert_eq!(bin_label(&grid, 2, 4), "≥ 5.20");
+        assert_eq!(axis_title(1), "d2 total_mass (kg)");
+        assert_eq!(axis_title(4), "d5 length_mult");
+    }
+
+    #[test]
+    fn one_outlier_does_not_set_the_top_of_the_colour_scale() {
+        let mut fitness: Vec<f64> = (0..99).map(|k| 1.0 + f64::from(k) / 98.0).collect();
+        fitness.push(30.5);
+        let scale = Scale::robust(fitness);
+        assert_eq!(scale.max, 30.5);
+        // The 95th of 100 values by nearest rank.
+        assert!((scale.hi - (1.0 + 94.0 / 98.0)).abs() < 1e-12, "{scale:?}");
+        assert_eq!(scale.t(30.5), 1.0);
+        assert!(scale.t(1.5) > 0.7 && scale.t(1.5) < 0.8);
+        assert!(scale.note().contains("95th percentile"), "{}", scale.note());
+        let even = Scale::robust([1.0, 2.0]);
+        assert_eq!((even.hi, even.max), (2.0, 2.0));
+        assert!(!even.note().contains("percentile"));
+    }
 
     #[test]
     fn stacking_nests_d1_d3_d5_across_and_d2_d4_d6_up() {

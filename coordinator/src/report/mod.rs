@@ -118,7 +118,13 @@ type Figure = (
     &'static str,
     fn(&GenerationStats) -> f64,
 );
-const FIGURES: [Figure; 4] = [
+const FIGURES: [Figure; 5] = [
+    (
+        "qd_score",
+        "QD score",
+        "QD score: sum of fitness over filled cells (offset 0)",
+        |s| s.qd_score,
+    ),
     (
         "best_fitness",
         "Best fitness in the library",
@@ -142,7 +148,52 @@ const FIGURES: [Figure; 4] = [
     }),
 ];
 
-fn html_table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
+/// One entry of a table: on the page a number is rounded for reading; in the CSV it is
+/// written whole (shortest exact form), so a script reads what was computed.
+#[derive(Clone, Debug, PartialEq)]
+enum Cell {
+    /// Words.
+    Text(String),
+    /// A number and the decimals shown on the page.
+    Number(f64, usize),
+    /// Nothing (not applicable).
+    Empty,
+}
+
+impl Cell {
+    fn page(&self) -> String {
+        match self {
+            Cell::Text(t) => t.clone(),
+            Cell::Number(v, decimals) => format!("{v:.decimals$}"),
+            Cell::Empty => String::new(),
+        }
+    }
+
+    fn csv(&self) -> String {
+        match self {
+            Cell::Text(t) => t.clone(),
+            Cell::Number(v, _) => format!("{v}"),
+            Cell::Empty => String::new(),
+        }
+    }
+}
+
+/// Words in a table.
+fn text(t: impl Into<String>) -> Cell {
+    Cell::Text(t.into())
+}
+
+/// A number shown with `decimals` decimals.
+fn num(v: f64, decimals: usize) -> Cell {
+    Cell::Number(v, decimals)
+}
+
+/// A count.
+fn count(v: u64) -> Cell {
+    Cell::Number(v as f64, 0)
+}
+
+fn html_table(out: &mut String, header: &[String], rows: &[Vec<Cell>]) {
     out.push_str("<table>\n<tr>");
     for h in header {
         let _ = write!(out, "<th>{}</th>", escape(h));
@@ -151,7 +202,7 @@ fn html_table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
     for r in rows {
         out.push_str("<tr>");
         for c in r {
-            let _ = write!(out, "<td>{}</td>", escape(c));
+            let _ = write!(out, "<td>{}</td>", escape(&c.page()));
         }
         out.push_str("</tr>\n");
     }
@@ -164,12 +215,29 @@ fn add_table(
     tables: &mut Vec<Table>,
     name: &str,
     header: &[String],
-    rows: &[Vec<String>],
+    rows: &[Vec<Cell>],
+) {
+    add_table_with_csv(page, tables, name, header, rows, header, rows);
+}
+
+/// A table on the page, and as `name`.csv with its own columns (more than the page shows).
+fn add_table_with_csv(
+    page: &mut String,
+    tables: &mut Vec<Table>,
+    name: &str,
+    header: &[String],
+    rows: &[Vec<Cell>],
+    csv_header: &[String],
+    csv_rows: &[Vec<Cell>],
 ) {
     html_table(page, header, rows);
+    let csv_rows: Vec<Vec<String>> = csv_rows
+        .iter()
+        .map(|r| r.iter().map(Cell::csv).collect())
+        .collect();
     tables.push(Table {
         name: name.into(),
-        csv: csv(header, rows),
+        csv: csv(csv_header, &csv_rows),
     });
 }
 
@@ -197,6 +265,9 @@ fn words(t: &MannWhitney) -> String {
         "not significant at 0.05".into()
     }
 }
+
+/// Below this many designs, the report warns that the rules fitted on them are anecdotes.
+const FEW_DESIGNS: usize = 30;
 
 /// The rule as the paper's Table 6 writes it: target = mean + terms.
 fn formula(r: &Rule) -> String {
@@ -231,6 +302,12 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     // 1. Progress per generation.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[0]);
     page.push_str("<p>For each scheme, the mean over its repeats (line) and one standard deviation either side (band).</p>\n");
+    page.push_str("<p>The QD score is the quality-diversity field's headline figure: the sum of fitness over the filled cells of the feasible library (as pyribs defines it, with offset 0: fitness, 1 / cost of transport, is never negative). Evaluations are candidates: the initial population, then offspring per generation (an ES candidate is up to 21 trials).</p>\n");
+    // Candidates evaluated by the end of generation g (the initial draws refused before
+    // simulating aside).
+    let evaluations = |g: f64| {
+        f64::from(e.run.initial_population) + g * f64::from(e.run.offspring_per_generation)
+    };
     let mut gen_rows = Vec::new();
     for (stem, title, label, figure) in FIGURES {
         let s = series(e, runs, figure);
@@ -240,6 +317,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
                     sc.name.clone(),
                     stem.to_string(),
                     format!("{g}"),
+                    format!("{}", evaluations(g)),
                     format!("{m}"),
                     format!("{sd}"),
                 ]);
@@ -248,13 +326,45 @@ pub fn build(inp: &Inputs<'_>) -> Report {
         pictures.push(Picture {
             name: stem.to_string(),
             caption: format!("{title}, per generation: mean ± sd over repeats."),
-            svg: line_chart(title, label, &s),
+            svg: line_chart(title, "generation", label, &s),
         });
+        if stem == "qd_score" {
+            let by_evaluations: Vec<Series> = s
+                .iter()
+                .map(|sc| Series {
+                    points: sc
+                        .points
+                        .iter()
+                        .map(|&(g, m, sd)| (evaluations(g), m, sd))
+                        .collect(),
+                    ..sc.clone()
+                })
+                .collect();
+            pictures.push(Picture {
+                name: "qd_score_by_evaluations".into(),
+                caption: "QD score against evaluations (candidates): mean ± sd over repeats."
+                    .into(),
+                svg: line_chart(
+                    "QD score against evaluations",
+                    "evaluations (candidates)",
+                    label,
+                    &by_evaluations,
+                ),
+            });
+        }
     }
     tables.push(Table {
         name: "per_generation".into(),
         csv: csv(
-            &["scheme", "figure", "generation", "mean", "sd"].map(String::from),
+            &[
+                "scheme",
+                "figure",
+                "generation",
+                "evaluations",
+                "mean",
+                "sd",
+            ]
+            .map(String::from),
             &gen_rows,
         ),
     });
@@ -286,17 +396,17 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     ]
     .map(String::from)
     .to_vec();
-    let rows: Vec<Vec<String>> = summary
+    let rows: Vec<Vec<Cell>> = summary
         .schemes
         .iter()
         .map(|s| {
             vec![
-                s.scheme.name().into(),
-                s.repeats.to_string(),
-                format!("{:.4}", s.best.mean),
-                format!("{:.4}", s.best.sd),
-                format!("{:.3}", 100.0 * s.coverage.mean),
-                format!("{:.3}", 100.0 * s.coverage.sd),
+                text(s.scheme.name()),
+                count(s.repeats as u64),
+                num(s.best.mean, 4),
+                num(s.best.sd, 4),
+                num(100.0 * s.coverage.mean, 3),
+                num(100.0 * s.coverage.sd, 3),
             ]
         })
         .collect();
@@ -319,12 +429,12 @@ pub fn build(inp: &Inputs<'_>) -> Report {
             ("final coverage", &c.coverage),
         ] {
             rows.push(vec![
-                format!("{} vs {}", c.schemes.0.name(), c.schemes.1.name()),
-                measure.into(),
-                format!("{}", t.u1.min(t.u2)),
-                format!("{:.4}", t.p),
-                format!("{:?}", t.method).to_lowercase(),
-                words(t),
+                text(format!("{} vs {}", c.schemes.0.name(), c.schemes.1.name())),
+                text(measure),
+                num(t.u1.min(t.u2), 1),
+                num(t.p, 4),
+                text(format!("{:?}", t.method).to_lowercase()),
+                text(words(t)),
             ]);
         }
     }
@@ -335,11 +445,10 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     add_table(&mut page, &mut tables, "mann_whitney", &header, &rows);
 
     // 3 and 4. One run's library.
-    let hi = runs
-        .iter()
-        .flat_map(|r| r.library.elites().map(|(_, el)| el.fitness))
-        .fold(0.0, f64::max);
-    let scale = Scale { lo: 0.0, hi };
+    let scale = Scale::robust(
+        runs.iter()
+            .flat_map(|r| r.library.elites().map(|(_, el)| el.fitness)),
+    );
     let chosen = runs.iter().find(|r| r.id == inp.chosen).or(runs.first());
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[2]);
     if let Some(run) = chosen {
@@ -390,12 +499,12 @@ pub fn build(inp: &Inputs<'_>) -> Report {
             .enumerate()
             .map(|(i, n)| format!("d{} {n}", i + 1)),
     );
-    let rows: Vec<Vec<String>> = summary
+    let rows: Vec<Vec<Cell>> = summary
         .schemes
         .iter()
         .map(|s| {
-            let mut r = vec![s.scheme.name().into(), s.top_designs.to_string()];
-            r.extend(s.top_features.iter().map(|v| format!("{v:.4}")));
+            let mut r = vec![text(s.scheme.name()), count(s.top_designs as u64)];
+            r.extend(s.top_features.iter().map(|&v| num(v, 4)));
             r
         })
         .collect();
@@ -409,12 +518,12 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     );
     let mut header = vec!["scheme".to_string()];
     header.extend(CONTROLLER_PARAMS.iter().map(|p| p.name.to_string()));
-    let rows: Vec<Vec<String>> = summary
+    let rows: Vec<Vec<Cell>> = summary
         .schemes
         .iter()
         .map(|s| {
-            let mut r = vec![s.scheme.name().into()];
-            r.extend(s.best_controller.iter().map(|v| format!("{v:.4}")));
+            let mut r = vec![text(s.scheme.name())];
+            r.extend(s.best_controller.iter().map(|&v| num(v, 4)));
             r
         })
         .collect();
@@ -423,22 +532,56 @@ pub fn build(inp: &Inputs<'_>) -> Report {
 
     // 6. Rules.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);
-    page.push_str("<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others; <em>d1</em> to <em>d6</em> are the features in the order above. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped.</p>\n");
-    let header: Vec<String> = ["scheme", "kept", "rule", "spread", "mean error %"]
+    page.push_str("<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others, named as in the maps. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped. <code>design_rules.csv</code> holds each rule as numbers: target = intercept + the sum of coefficient x feature.</p>\n");
+    let header: Vec<String> = [
+        "scheme",
+        "designs",
+        "kept",
+        "rule",
+        "spread",
+        "mean error %",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut csv_header: Vec<String> = ["scheme", "designs", "kept", "target", "intercept"]
         .map(String::from)
         .to_vec();
-    let mut rows = Vec::new();
+    csv_header.extend(FEATURE_NAMES.iter().map(|n| format!("coef_{n}")));
+    csv_header.extend(["spread", "mean_error"].map(String::from));
+    let (mut rows, mut csv_rows) = (Vec::new(), Vec::new());
+    let mut few = Vec::new();
     for s in &summary.schemes {
         if let Some(rules) = &s.rules {
+            if s.top_designs < FEW_DESIGNS {
+                few.push(format!("{} ({})", s.scheme.name(), s.top_designs));
+            }
             for (kept, list) in [("kept", &rules.kept), ("dropped", &rules.dropped)] {
                 for r in list {
                     rows.push(vec![
-                        s.scheme.name().into(),
-                        kept.into(),
-                        formula(r),
-                        format!("{:.3}", r.spread),
-                        format!("{:.2}", 100.0 * r.mean_error),
+                        text(s.scheme.name()),
+                        count(s.top_designs as u64),
+                        text(kept),
+                        text(formula(r)),
+                        num(r.spread, 3),
+                        num(100.0 * r.mean_error, 2),
                     ]);
+                    let (intercept, coefficients) = r.linear();
+                    let mut row = vec![
+                        text(s.scheme.name()),
+                        count(s.top_designs as u64),
+                        text(kept),
+                        text(FEATURE_NAMES[r.target]),
+                        Cell::Number(intercept, 4),
+                    ];
+                    row.extend(coefficients.iter().enumerate().map(|(j, &a)| {
+                        if j == r.target {
+                            Cell::Empty
+                        } else {
+                            Cell::Number(a, 4)
+                        }
+                    }));
+                    row.extend([num(r.spread, 3), num(r.mean_error, 4)]);
+                    csv_rows.push(row);
                 }
             }
         }
@@ -446,7 +589,22 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     if rows.is_empty() {
         page.push_str("<p>Too few designs to mine rules.</p>\n");
     }
-    add_table(&mut page, &mut tables, "design_rules", &header, &rows);
+    if !few.is_empty() {
+        let _ = writeln!(
+            page,
+            "<p class=\"warning\"><strong>Few designs:</strong> rules fitted on fewer than {FEW_DESIGNS} designs ({}) describe those designs, not a trend: read them as anecdotes.</p>",
+            few.join(", ")
+        );
+    }
+    add_table_with_csv(
+        &mut page,
+        &mut tables,
+        "design_rules",
+        &header,
+        &rows,
+        &csv_header,
+        &csv_rows,
+    );
 
     // 7. Drawings.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[7]);
@@ -508,17 +666,17 @@ fn frontier_section(
             .iter()
             .map(|s| format!("binding: {}", s.name())),
     );
-    let rows: Vec<Vec<String>> = summary
+    let rows: Vec<Vec<Cell>> = summary
         .schemes
         .iter()
         .map(|s| {
             let f = &s.frontier;
             let mut r = vec![
-                s.scheme.name().into(),
-                format!("{:.1}", f.feasible.mean),
-                format!("{:.1}", f.infeasible_only.mean),
+                text(s.scheme.name()),
+                num(f.feasible.mean, 1),
+                num(f.infeasible_only.mean, 1),
             ];
-            r.extend(f.binding.iter().map(|(_, n)| format!("{n:.1}")));
+            r.extend(f.binding.iter().map(|&(_, n)| num(n, 1)));
             r
         })
         .collect();
@@ -571,30 +729,26 @@ fn frontier_section(
     ]
     .map(String::from)
     .to_vec();
-    let rows: Vec<Vec<String>> = nearest
+    let rows: Vec<Vec<Cell>> = nearest
         .iter()
         .map(|(r, cell, el)| {
             let plan = BodyPlan::new(&el.genome.morphology, e.brief.payload);
             let pose = StartPose::new(&plan, &el.genome.controller);
             let (speed, ended) = match el.standing {
-                strider_common::Standing::TooSlow { speed } => {
-                    (format!("{speed:.3}"), String::new())
-                }
-                strider_common::Standing::EndedEarly { at_time } => {
-                    (String::new(), format!("{at_time:.2}"))
-                }
-                _ => (String::new(), String::new()),
+                strider_common::Standing::TooSlow { speed } => (num(speed, 3), Cell::Empty),
+                strider_common::Standing::EndedEarly { at_time } => (Cell::Empty, num(at_time, 2)),
+                _ => (Cell::Empty, Cell::Empty),
             };
             vec![
-                r.id.to_string(),
-                r.scheme.name().into(),
-                cell.0.to_string(),
-                el.shortfall.name().into(),
+                count(r.id as u64),
+                text(r.scheme.name()),
+                count(u64::from(cell.0)),
+                text(el.shortfall.name()),
                 speed,
                 ended,
-                plan.legs_per_side().to_string(),
-                format!("{:.1}", plan.mass_without_payload()),
-                format!("{:.2}", pose.height),
+                count(plan.legs_per_side() as u64),
+                num(plan.mass_without_payload(), 1),
+                num(pose.height, 2),
             ]
         })
         .collect();
@@ -710,5 +864,23 @@ mod tests {
             &[vec!["x, y".into(), "say \"hi\"".into()]],
         );
         assert_eq!(out, "a,b\n\"x, y\",\"say \"\"hi\"\"\"\n");
+    }
+
+    #[test]
+    fn numbers_are_rounded_on_the_page_and_whole_in_the_csv() {
+        let mut page = String::new();
+        let mut tables = Vec::new();
+        add_table(
+            &mut page,
+            &mut tables,
+            "t",
+            &["p".into(), "n".into(), "note".into()],
+            &[vec![num(0.000123456789, 4), count(7), Cell::Empty]],
+        );
+        assert!(
+            page.contains("<td>0.0001</td><td>7</td><td></td>"),
+            "{page}"
+        );
+        assert_eq!(tables[0].csv, "p,n,note\n0.000123456789,7,\n");
     }
 }

@@ -55,8 +55,8 @@ pub fn colour(t: f64) -> String {
 }
 
 /// A horizontal colour bar for fitness from `lo` to `hi` at (x, y), `w` wide, with the
-/// empty-cell swatch beside it.
-pub fn colour_bar(out: &mut String, x: f64, y: f64, w: f64, lo: f64, hi: f64) {
+/// empty-cell swatch beside it and `note` (how the scale was chosen) under it.
+pub fn colour_bar(out: &mut String, x: f64, y: f64, w: f64, lo: f64, hi: f64, note: &str) {
     let steps = 50;
     for k in 0..steps {
         let _ = writeln!(
@@ -77,6 +77,7 @@ pub fn colour_bar(out: &mut String, x: f64, y: f64, w: f64, lo: f64, hi: f64) {
         "middle",
         "fitness (1 / cost of transport)",
     );
+    text(out, x, y + 42.0, 10.0, "start", note);
     let _ = writeln!(
         out,
         r##"<rect x="{:.1}" y="{y:.1}" width="12" height="12" fill="{EMPTY}" stroke="#999"/>"##,

@@ -230,7 +230,7 @@ mod tests {
         let mut unique = types.clone();
         unique.dedup();
         assert_eq!(types.len(), unique.len());
-        assert_eq!(types.len(), 11);
+        assert_eq!(types.len(), 13);
         // Every sample line is `name{labels} value` or `name value` with a number.
         for l in text.lines().filter(|l| !l.starts_with('#')) {
             let value = l.rsplit(' ').next().unwrap();
