@@ -68,6 +68,10 @@ pub struct TrialLimits {
     /// How long the robot must stay up after the trial, the gait going on, s: a robot that
     /// falls then was falling at the end (distance and energy count over the trial only).
     pub upright_after_seconds: f64,
+    /// Largest tilt of the body while it must stay up after the trial, degrees (the
+    /// smaller of this and `max_tilt_degrees` applies): a robot past it is falling, not
+    /// walking on, though it may not pass `max_tilt_degrees` before the window ends.
+    pub upright_after_max_tilt_degrees: f64,
 }
 
 impl Default for TrialLimits {
@@ -77,6 +81,7 @@ impl Default for TrialLimits {
             min_height_fraction: 0.5,
             only_feet_on_ground: true,
             upright_after_seconds: 1.0,
+            upright_after_max_tilt_degrees: 20.0,
         }
     }
 }
@@ -311,6 +316,12 @@ impl Experiment {
             self.trial.upright_after_seconds,
             0.0,
             60.0,
+        )?;
+        check_real(
+            "trial.upright_after_max_tilt_degrees",
+            self.trial.upright_after_max_tilt_degrees,
+            1.0,
+            180.0,
         )?;
         check_real(
             "search.feasible_parent_share",

@@ -38,6 +38,77 @@ pub fn joint_name(leg: usize, link: usize) -> String {
     format!("{}_joint", link_name(leg, link))
 }
 
+/// The lowest speed limit written: a motor with `wmax` 0 holds its joint still in the
+/// model's gait, but `velocity="0"` would freeze the joint outright in tools that enforce
+/// limits (it could not even hold against a push). The model's own figure is in the
+/// joint's comment.
+pub const MIN_VELOCITY_LIMIT: f64 = 0.05;
+
+/// Where a design starts, for the URDF of it: the root link `body`'s pose in a world with
+/// URDF's axes (z up, ground at z = 0) and every joint's angle (rad) by joint name. Written
+/// beside the URDF as JSON, since URDF itself has no initial state.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UrdfStartPose {
+    /// The body's position, m (its centre; z is its height above the ground).
+    pub base_xyz: [f64; 3],
+    /// The body's roll, pitch and yaw, rad (level: zero).
+    pub base_rpy: [f64; 3],
+    /// Joint angles by joint name ([`joint_name`]), rad.
+    pub joints: std::collections::BTreeMap<String, f64>,
+}
+
+impl UrdfStartPose {
+    /// `pose` (of `plan`) in URDF's axes.
+    pub fn new(pose: &crate::StartPose) -> Self {
+        let at = urdf_from_model() * pose.body.translation.vector;
+        let (r, p, y) =
+            (urdf_from_model() * pose.body.rotation * urdf_from_model().inverse()).euler_angles();
+        let joints = pose
+            .joint_angles
+            .iter()
+            .enumerate()
+            .flat_map(|(l, q)| (0..3).map(move |k| (joint_name(l, k), q[k])))
+            .collect();
+        UrdfStartPose {
+            base_xyz: [at.x, at.y, at.z],
+            base_rpy: [r, p, y],
+            joints,
+        }
+    }
+
+    /// As pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("plain numbers serialise")
+    }
+}
+
+/// Where the start pose of the URDF at `urdf` goes: beside it, `NAME.start_pose.json`.
+pub fn start_pose_path(urdf: &std::path::Path) -> std::path::PathBuf {
+    let stem = urdf
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "design".into());
+    urdf.with_file_name(format!("{stem}.start_pose.json"))
+}
+
+/// Writes `plan` as URDF named `name` to `path`, and its start pose (with `controller`'s
+/// targets at t = 0) beside it ([`start_pose_path`]); returns the start pose's path.
+pub fn write_files(
+    name: &str,
+    plan: &BodyPlan,
+    controller: &crate::Controller,
+    path: &std::path::Path,
+) -> std::io::Result<std::path::PathBuf> {
+    let with_path = |e: std::io::Error, p: &std::path::Path| {
+        std::io::Error::new(e.kind(), format!("writing {}: {e}", p.display()))
+    };
+    std::fs::write(path, to_urdf(name, plan)).map_err(|e| with_path(e, path))?;
+    let pose = start_pose_path(path);
+    let start = UrdfStartPose::new(&crate::StartPose::new(plan, controller));
+    std::fs::write(&pose, start.to_json() + "\n").map_err(|e| with_path(e, &pose))?;
+    Ok(pose)
+}
+
 /// `plan` as a URDF document named `name`.
 pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
     let mut out = String::new();
@@ -48,8 +119,10 @@ pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
         out,
         "<!-- Strider design: total mass {total:.3} kg including {:.3} kg payload. Joints carry\n     \
          the motor model's torque (effort, Nm) and speed (velocity, rad/s) limits; the model\n     \
-         has no angle stops, so position limits are +-pi. Spring stiffness per joint is in\n     \
-         each joint's comment (URDF has no field for it). -->",
+         has no angle stops, so position limits are +-pi; a speed limit under {MIN_VELOCITY_LIMIT}\n     \
+         rad/s is written as {MIN_VELOCITY_LIMIT}, so that no joint is frozen. Spring stiffness and the\n     \
+         model's speed limit per joint are in each joint's comment (URDF has no field for\n     \
+         them). The start pose (base pose and joint angles) is in NAME.start_pose.json. -->",
         plan.payload_mass
     );
     let _ = writeln!(out, r#"<robot name="{}">"#, escape(name));
@@ -111,7 +184,7 @@ fn write_joint(
     let t = origin.translation.vector;
     let _ = writeln!(
         out,
-        r#"  <!-- stiffness {:.6} Nm/rad -->
+        r#"  <!-- stiffness {:.6} Nm/rad, speed limit {} rad/s -->
   <joint name="{}" type="revolute">
     <parent link="{parent}"/>
     <child link="{}"/>
@@ -121,6 +194,7 @@ fn write_joint(
     <dynamics damping="{}" friction="0"/>
   </joint>"#,
         d.stiffness,
+        d.max_speed,
         joint_name(leg, link),
         link_name(leg, link),
         t.x,
@@ -135,7 +209,7 @@ fn write_joint(
         -std::f64::consts::PI,
         std::f64::consts::PI,
         d.max_torque,
-        d.max_speed,
+        d.max_speed.max(MIN_VELOCITY_LIMIT),
         d.damping,
     );
 }

@@ -5,7 +5,9 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::path::Path;
-use strider_common::urdf::{joint_name, link_name, to_urdf, urdf_from_model};
+use strider_common::urdf::{
+    joint_name, link_name, to_urdf, urdf_from_model, UrdfStartPose, MIN_VELOCITY_LIMIT,
+};
 use strider_common::{BodyPlan, Genome, StartPose};
 
 fn design(path: &str) -> Genome {
@@ -50,7 +52,11 @@ fn check(genome: &Genome) {
             let j = joint(&joint_name(l, k));
             assert_eq!(j.joint_type, urdf_rs::JointType::Revolute);
             assert_eq!(j.limit.effort, part.drive.max_torque);
-            assert_eq!(j.limit.velocity, part.drive.max_speed);
+            assert_eq!(
+                j.limit.velocity,
+                part.drive.max_speed.max(MIN_VELOCITY_LIMIT)
+            );
+            assert!(j.limit.velocity > 0.0, "no joint is frozen");
             assert_eq!(j.child.link, link_name(l, k));
         }
     }
@@ -80,6 +86,44 @@ fn check(genome: &Genome) {
             );
         }
     }
+    // The start pose written beside the URDF: its base pose and joint angles, through the
+    // parsed joints, put every foot where the model's start pose does, in a world with
+    // URDF's axes, with the body at its start height above the ground (z = 0).
+    let json = UrdfStartPose::new(&start).to_json();
+    let written: UrdfStartPose = serde_json::from_str(&json).unwrap();
+    assert_eq!(written.joints.len(), robot.joints.len());
+    let base = Isometry3::from_parts(
+        Translation3::from(v(&written.base_xyz)),
+        UnitQuaternion::from_euler_angles(
+            written.base_rpy[0],
+            written.base_rpy[1],
+            written.base_rpy[2],
+        ),
+    );
+    let world_to_urdf = Isometry3::from_parts(Translation3::identity(), urdf_from_model());
+    assert!((written.base_xyz[2] - start.body_height).abs() < 1e-12);
+    assert!(
+        start.lowest_point.y.abs() < 1e-9,
+        "the model stands on y = 0"
+    );
+    for (l, leg) in plan.legs.iter().enumerate() {
+        let mut at = base;
+        for k in 0..3 {
+            let j = joint(&joint_name(l, k));
+            let axis = nalgebra::Unit::new_normalize(v(&j.axis.xyz.0));
+            let q = written.joints[&joint_name(l, k)];
+            at = at * pose(&j.origin) * UnitQuaternion::from_axis_angle(&axis, q);
+        }
+        let foot = at * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length);
+        let want = world_to_urdf
+            * start.link_poses[l][2]
+            * nalgebra::Point3::new(0.0, 0.0, leg.links[2].length);
+        assert!(
+            (foot - want).norm() < 1e-9,
+            "leg {l} foot: {foot} vs {want}"
+        );
+    }
+
     // The body's mass sits where the model's does, turned into URDF axes (y up -> z up).
     let body = link("body");
     let com = urdf_from_model() * plan.body_mass.com;

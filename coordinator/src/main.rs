@@ -684,14 +684,14 @@ async fn export_urdf(
     let (run, cell, fitness, genome) = export::find(&runs, choice).map_err(anyhow::Error::msg)?;
     let plan = BodyPlan::new(&genome.morphology, experiment.brief.payload);
     let name = format!("{} run {run} cell {}", experiment.name, cell.0);
-    std::fs::write(urdf, strider_common::urdf::to_urdf(&name, &plan))
-        .with_context(|| format!("writing {}", urdf.display()))?;
+    let pose = strider_common::urdf::write_files(&name, &plan, &genome.controller, urdf)?;
     eprintln!(
-        "run {run}, cell {}: fitness {fitness:.4}, {:.2} kg, {} legs -> {}",
+        "run {run}, cell {}: fitness {fitness:.4}, {:.2} kg, {} legs -> {} (start pose: {})",
         cell.0,
         plan.total_mass(),
         plan.legs.len(),
-        urdf.display()
+        urdf.display(),
+        pose.display()
     );
     Ok(())
 }
@@ -949,6 +949,15 @@ fn check(path: &Path) -> anyhow::Result<()> {
             ""
         }
     );
+    if e.trial.upright_after_seconds > 0.0 {
+        outln!(
+            "after the trial the robot must stay up {} s more, its body within {} degrees of level",
+            e.trial.upright_after_seconds,
+            e.trial
+                .max_tilt_degrees
+                .min(e.trial.upright_after_max_tilt_degrees)
+        );
+    }
     // What it costs, from MAX's measured trial (BENCHMARKS.md: 22.4 ms of one core for
     // 6 simulated seconds at 30 steps/s, 0.124 ms a physics step); most random designs end
     // sooner (they fall or touch themselves), so these are upper figures.

@@ -227,6 +227,18 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
         .map(|l| l.inertial.mass.value)
         .sum();
     assert_eq!(mass_again.to_bits(), mass.to_bits());
+    // Both wrote the start pose beside the URDF, the same one: a joint angle for every
+    // joint, the body at its start height.
+    let pose = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
+    };
+    let (first, second) = (pose("best.start_pose.json"), pose("again.start_pose.json"));
+    assert_eq!(first, second);
+    assert_eq!(
+        first["joints"].as_object().unwrap().len(),
+        robot.joints.len()
+    );
+    assert!(first["base_xyz"][2].as_f64().unwrap() > 0.5, "{first}");
     // A cell with no elite is refused by name.
     let out = run(
         "strider-coordinator",

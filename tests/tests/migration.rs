@@ -3,8 +3,9 @@
 //! generation 2 of 6: `tests/fixtures/pre-0003.sql`, dumped with `sqlite3 .dump`),
 //! migration 0003 fills in every stored candidate's shortfall and names the method the
 //! experiment was started with; before infeasible tournaments (schema 0003, killed at
-//! generation 3 of 10: `tests/fixtures/pre-0004.sql`), migration 0004 names the uniform
-//! selection it drew infeasible parents with.
+//! generation 3 of 10: `tests/fixtures/pre-0004.sql`), migrations 0004 and 0005 name the
+//! uniform selection it drew infeasible parents with and the tilt limit it checked after
+//! the trial.
 
 use std::process::Command;
 use strider_tests::{export, installed, run_ok, skip_without, temp_dir, workspace_root};
@@ -53,7 +54,7 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0003`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "4");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "5");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "6|1");
 
     // The stored experiment says how it began: the paper's method.
@@ -104,11 +105,15 @@ fn a_database_made_before_migration_0004_resumes_with_uniform_infeasible_parents
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0004`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "4");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "5");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "10|1");
     let definition = sql(&db, "SELECT definition FROM experiment");
     assert!(
         definition.contains("[search]\ninfeasible_tournament = 1\n"),
+        "{definition}"
+    );
+    assert!(
+        definition.contains("[trial]\nupright_after_max_tilt_degrees = 180.0\n"),
         "{definition}"
     );
 

@@ -353,14 +353,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .file_stem()
                 .and_then(|s| s.to_str())
                 .unwrap_or("design");
-            std::fs::write(&out, strider_common::urdf::to_urdf(name, &plan))
-                .with_context(|| format!("writing {}", out.display()))?;
+            let pose = strider_common::urdf::write_files(name, &plan, &g.controller, &out)?;
             eprintln!(
-                "{}: {:.2} kg, {} legs -> {}",
+                "{}: {:.2} kg, {} legs -> {} (start pose: {})",
                 genome.display(),
                 plan.total_mass(),
                 plan.legs.len(),
-                out.display()
+                out.display(),
+                pose.display()
             );
             Ok(())
         }

@@ -336,6 +336,78 @@ fn a_robot_that_tips_over_has_fallen() {
     }
 }
 
+/// The body's largest tilt from upright after `from` s, degrees.
+struct TiltAfter {
+    from: f64,
+    max: f64,
+}
+
+impl Observer for TiltAfter {
+    fn control_step(&mut self, s: &Sample<'_>) {
+        if s.time > self.from {
+            let up = s.body.rotation * strider_worker::sim::trial::up_axis();
+            self.max = self.max.max(up.y.clamp(-1.0, 1.0).acos().to_degrees());
+        }
+    }
+}
+
+#[test]
+fn a_robot_tipping_after_the_trial_has_fallen_under_the_stricter_limit() {
+    // Upright through the trial; from 5 s the right legs fold slowly: the body leans
+    // further than 20 degrees but not 45 by the end of the second after the trial.
+    let tip = |leg: &strider_common::body_plan::LegPlan, t: f64| {
+        let lean = 0.7 * (t - 5.0).clamp(0.0, 1.0);
+        if leg.side == strider_common::body_plan::Side::Right {
+            [0.5, 0.5 - 1.5 * lean, 0.5 - 1.5 * lean]
+        } else {
+            [0.5, 0.5 + 0.8 * lean, 0.5]
+        }
+    };
+    let run = |limits: TrialLimits, observer: &mut TiltAfter| {
+        let g = max();
+        let plan = BodyPlan::new(&g.morphology, 10.0);
+        let start = StartPose::with_angles(&plan, vec![[0.5; 3]; plan.legs.len()]);
+        run_trial_with(
+            &plan,
+            &start,
+            &ctx().settings,
+            &limits,
+            |leg, t| tip(&plan.legs[leg], t),
+            observer,
+        )
+    };
+    let lenient = TrialLimits {
+        upright_after_max_tilt_degrees: 180.0,
+        ..TrialLimits::default()
+    };
+    let mut seen = TiltAfter {
+        from: 5.0,
+        max: 0.0,
+    };
+    let end = run(lenient, &mut seen);
+    println!("largest tilt after the trial: {:.1} degrees", seen.max);
+    assert!(matches!(end, TrialEnd::Completed(_)), "{end:?}");
+    assert!(seen.max > 20.0 && seen.max < 45.0, "{}", seen.max);
+
+    let mut seen = TiltAfter {
+        from: 5.0,
+        max: 0.0,
+    };
+    match run(TrialLimits::default(), &mut seen) {
+        TrialEnd::Stopped {
+            reason:
+                InvalidReason::Fell {
+                    fall: Fall::Tilted { degrees, limit },
+                },
+            at_time,
+        } => {
+            assert!(degrees > 20.0 && limit == 20.0, "{degrees} {limit}");
+            assert!(at_time > 5.0 && at_time <= 6.0 + 1e-9, "{at_time}");
+        }
+        other => panic!("expected a tilt after the trial, got {other:?}"),
+    }
+}
+
 #[test]
 fn a_robot_that_sinks_onto_its_body_has_fallen() {
     // Every upper leg rises above horizontal: the body comes down on its legs' hips.

@@ -24,6 +24,12 @@ use strider_common::outcome::{Fall, InvalidReason, TrialStats};
 use strider_common::params::LINKS_PER_LEG;
 use strider_common::{Controller, StartPose};
 
+/// The body frame's up axis (the model's y): its angle from the world's vertical is the
+/// body's tilt.
+pub fn up_axis() -> Vector3<f64> {
+    Vector3::y()
+}
+
 /// Standard gravity, m/s^2.
 pub const GRAVITY: f64 = 9.81;
 /// A generalized velocity beyond this (m/s or rad/s) means the simulation blew up: the
@@ -207,7 +213,7 @@ pub fn run_trial_with<O: Observer>(
         if let Some(reason) = contacts(&rw, limits.only_feet_on_ground, step < steps, plan) {
             return stopped(reason, time);
         }
-        if let Some(fall) = falls.check(&rw) {
+        if let Some(fall) = falls.check(&rw, step >= steps) {
             return stopped(InvalidReason::Fell { fall }, time);
         }
     }
@@ -278,33 +284,41 @@ fn drive_joints(
 
 /// The body's tilt and height limits of a trial, precomputed.
 struct FallCheck {
-    /// The tilt limit, degrees.
-    max_tilt: f64,
-    /// cos of the tilt limit: the smallest y component of the body's up axis.
-    min_up_y: f32,
+    /// The tilt limits during the trial and after it, degrees.
+    max_tilt: [f64; 2],
+    /// cos of each tilt limit: the smallest y component of the body's up axis.
+    min_up_y: [f32; 2],
     /// The lowest body-centre height, m.
     min_height: f32,
 }
 
 impl FallCheck {
     fn new(limits: &TrialLimits, start: &StartPose) -> Self {
+        let max_tilt = [
+            limits.max_tilt_degrees,
+            limits
+                .max_tilt_degrees
+                .min(limits.upright_after_max_tilt_degrees),
+        ];
         Self {
-            max_tilt: limits.max_tilt_degrees,
-            min_up_y: limits.max_tilt_degrees.to_radians().cos() as f32,
+            max_tilt,
+            min_up_y: max_tilt.map(|t| t.to_radians().cos() as f32),
             min_height: (limits.min_height_fraction * start.body_height) as f32,
         }
     }
 
-    /// A fall of the body (tilt or height), if any.
-    fn check(&self, rw: &RobotWorld) -> Option<Fall> {
+    /// A fall of the body (tilt or height), if any; `after` the trial the tilt limit is
+    /// the one for staying up.
+    fn check(&self, rw: &RobotWorld, after: bool) -> Option<Fall> {
         let p = rw.world.bodies[rw.parts[0].0].position();
         let r = p.rotation;
         // The y component of the body's rotated up axis: cos of its tilt.
         let up_y = 1.0 - 2.0 * (r.x * r.x + r.z * r.z);
-        if up_y < self.min_up_y {
+        let k = usize::from(after);
+        if up_y < self.min_up_y[k] {
             return Some(Fall::Tilted {
                 degrees: f64::from(up_y.clamp(-1.0, 1.0)).acos().to_degrees(),
-                limit: self.max_tilt,
+                limit: self.max_tilt[k],
             });
         }
         if p.translation.y < self.min_height {
