@@ -81,8 +81,8 @@ const CSV_STATS: [usize; 5] = [0, 1, 2, 4, 5];
 
 /// The CSV header: identity, fitness, features (`feature_` and the feature's name: four
 /// features are genome parameters too, and a column name must not repeat), statistics,
-/// then every genome parameter by its table name. Every name is unique, so pandas reads
-/// it as written.
+/// then every genome parameter, `genome_` and its table name. Every name is unique, so
+/// pandas reads it as written.
 pub fn csv_header() -> String {
     let mut h = String::from("run,scheme,repeat,cell,candidate,fitness");
     for name in FEATURE_NAMES {
@@ -94,10 +94,49 @@ pub fn csv_header() -> String {
         h.push_str(STAT_NAMES[i]);
     }
     for p in MORPHOLOGY_PARAMS.iter().chain(CONTROLLER_PARAMS) {
-        h.push(',');
+        h.push_str(",genome_");
         h.push_str(p.name);
     }
     h
+}
+
+/// The per-generation CSV's header: the run, the generation, the candidates it evaluated
+/// (the initial population's draws for generation 0, those refused before simulating
+/// included) and all of the run's so far, then the library's statistics after it
+/// ([`GenerationStats`]).
+pub const GENERATIONS_CSV_HEADER: &str = "run,scheme,repeat,generation,evaluations,\
+cumulative_evaluations,coverage,\
+feasible_elites,max_fitness,mean_fitness,min_fitness,qd_score,new,improved,discarded,\
+rejected,invalid,infeasible_elites,infeasible_only,infeasible_new,infeasible_improved";
+
+/// One line of the per-generation CSV.
+pub fn generations_csv_line(
+    run: &RunRecord,
+    generation: u32,
+    (evaluations, cumulative): (u64, u64),
+    s: &crate::library::GenerationStats,
+) -> String {
+    format!(
+        "{},{},{},{generation},{evaluations},{cumulative},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+        run.id,
+        run.spec.scheme.name(),
+        run.spec.repeat,
+        s.coverage,
+        s.elites,
+        s.max_fitness,
+        s.mean_fitness,
+        s.min_fitness,
+        s.qd_score,
+        s.new,
+        s.improved,
+        s.discarded,
+        s.rejected,
+        s.invalid,
+        s.infeasible_elites,
+        s.infeasible_only,
+        s.infeasible_new,
+        s.infeasible_improved
+    )
 }
 
 /// One CSV line (features and statistics empty when the outcome is missing).

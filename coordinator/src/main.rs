@@ -50,8 +50,12 @@ struct Cli {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum Format {
+    /// Everything: elites, infeasible elites and per-generation statistics.
     Json,
+    /// One row per elite: features, trial figures and genome.
     Csv,
+    /// One row per run and generation: the library's statistics.
+    GenerationsCsv,
 }
 
 #[derive(Subcommand)]
@@ -640,6 +644,17 @@ async fn export(path: &Path, only: Option<i64>, format: Format) -> anyhow::Resul
             writeln!(out, "{}", export::csv_header())?;
             for row in rows.iter().flatten() {
                 writeln!(out, "{}", export::csv_line(row))?;
+            }
+        }
+        Format::GenerationsCsv => {
+            writeln!(out, "{}", export::GENERATIONS_CSV_HEADER)?;
+            for r in &runs {
+                let mut cumulative = 0;
+                for (g, evaluations, s) in db.generations(r.id).await? {
+                    cumulative += evaluations;
+                    let line = export::generations_csv_line(r, g, (evaluations, cumulative), &s);
+                    writeln!(out, "{line}")?;
+                }
             }
         }
     }

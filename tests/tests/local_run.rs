@@ -149,11 +149,28 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
     assert_eq!(header.len(), 6 + 6 + 5 + 43 + 7);
     assert_eq!(header[6], "feature_total_leg_length");
     assert_eq!(header[12], "distance");
-    assert_eq!(header[17], "body_half_x");
+    assert_eq!(header[17], "genome_body_half_x");
     let unique: std::collections::HashSet<&&str> = header.iter().collect();
     assert_eq!(unique.len(), header.len(), "{header:?}");
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), elites);
+    // pandas reads both CSVs as written: the README's lines, run by Debian's Python.
+    let csv_file = dir.join("library.csv");
+    std::fs::write(&csv_file, &text).unwrap();
+    let out = run(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db.to_str().unwrap(),
+            "--format",
+            "generations-csv",
+        ],
+    );
+    assert!(out.status.success());
+    let generations_file = dir.join("generations.csv");
+    std::fs::write(&generations_file, &out.stdout).unwrap();
+    pandas_reads(&csv_file, &generations_file, elites);
     for row in &rows {
         assert_eq!(row.len(), header.len());
         // Every elite passed a trial: its features and figures are there.
@@ -429,4 +446,54 @@ fn export_analyse_and_verify_read_a_database_on_a_read_only_mount() {
     assert_same_library(&read, &expected);
     std::fs::remove_file(json).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Reads the library and per-generation CSVs with pandas, as the README's "Reading the
+/// results" does, and checks what a user relies on: the columns, unrenamed and numeric.
+fn pandas_reads(library: &std::path::Path, generations: &std::path::Path, elites: usize) {
+    const PYTHON: &str = "/usr/bin/python3";
+    let has_pandas = Command::new(PYTHON)
+        .args(["-c", "import pandas"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_pandas {
+        return strider_tests::skip_without(
+            "pandas for /usr/bin/python3 (apt-get install python3-pandas; .ci/run does)",
+        );
+    }
+    let script = r#"
+import sys
+import pandas as pd
+lib = pd.read_csv(sys.argv[1])
+gen = pd.read_csv(sys.argv[2])
+assert not any('.' in c for c in lib.columns), 'pandas renamed a column'
+features = [c for c in lib.columns if c.startswith('feature_')]
+genome = [c for c in lib.columns if c.startswith('genome_')]
+assert len(features) == 6 and len(genome) == 50, (features, len(genome))
+numeric = lib.drop(columns=['scheme']).select_dtypes('number').columns
+assert len(numeric) == len(lib.columns) - 1, 'a column is not numeric'
+best = lib.loc[lib.fitness.idxmax()]
+assert best.fitness > 0 and best.feature_total_mass > 0
+last = gen.sort_values('generation').groupby('run').last()
+assert {'qd_score', 'coverage', 'cumulative_evaluations', 'feasible_elites'} <= set(gen.columns)
+assert (gen.groupby('run').cumulative_evaluations.diff().dropna() > 0).all()
+assert (gen.groupby('run').generation.count() == 13).all(), gen.groupby('run').generation.count()
+print(len(lib), int(last.feasible_elites.sum()))
+"#;
+    let out = Command::new(PYTHON)
+        .args(["-c", script])
+        .arg(library)
+        .arg(generations)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // pandas counted every elite, in the CSV and in the last generation's statistics.
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        format!("{elites} {elites}")
+    );
 }
