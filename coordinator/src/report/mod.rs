@@ -119,12 +119,9 @@ type Figure = (
     fn(&GenerationStats) -> f64,
 );
 const FIGURES: [Figure; 5] = [
-    (
-        "qd_score",
-        "QD score",
-        "QD score: sum of fitness over filled cells (offset 0)",
-        |s| s.qd_score,
-    ),
+    ("qd_score", "QD score", "QD score (sum of fitness)", |s| {
+        s.qd_score
+    }),
     (
         "best_fitness",
         "Best fitness in the library",
