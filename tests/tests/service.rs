@@ -157,6 +157,16 @@ fn killed_stopped_and_terminated_workers_change_nothing() {
     drop(killed);
     assert_same_library(&export(&db), expected);
     assert_eq!(integrity(&db), "ok");
+    // The worker that left on SIGTERM closed its stream cleanly (it waits for the
+    // coordinator to close its side): no HTTP/2 error in the coordinator's record.
+    assert_eq!(
+        strider_tests::sqlite(
+            &db,
+            "SELECT left_because FROM workers WHERE name = 'terminated'"
+        )
+        .trim(),
+        "the worker closed its stream"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -410,6 +410,14 @@ async fn session(
             _ = shutdown.changed() => {
                 drop(answer);
                 drain(opts.drain, &out, queue, running, &mut answers).await;
+                // Close this side and wait, briefly, for the coordinator to close its own:
+                // a process that exits at once resets the connection, which the coordinator
+                // could only log as an HTTP/2 protocol error.
+                drop(out);
+                let _ = tokio::time::timeout(Duration::from_secs(2), async {
+                    while let Ok(Some(_)) = inbound.message().await {}
+                })
+                .await;
                 return Ok(End::ShutDown);
             },
         }
