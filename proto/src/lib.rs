@@ -17,3 +17,4 @@ pub const PROTOCOL_VERSION: u32 = 1;
 
 pub mod convert;
 pub mod process;
+pub mod terminal;

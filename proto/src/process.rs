@@ -86,7 +86,7 @@ pub fn init_logs() -> Result<(), String> {
         && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
+        .with_writer(crate::terminal::LogWriter)
         .with_ansi(colour)
         .try_init();
     Ok(())

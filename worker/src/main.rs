@@ -14,6 +14,7 @@ use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::StartPose;
 use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
 use strider_proto::process::{report, UsageError};
+use strider_proto::terminal::Bar;
 use strider_worker::batch::default_threads;
 use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
@@ -375,11 +376,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let ctx = context(experiment.as_deref())?;
             let threads = threads.unwrap_or_else(default_threads);
-            // A line on stderr every 5 s (or so), with the rate and what is left: a large
-            // survey runs for minutes.
+            // A bar on a terminal, else a line on stderr every 5 s (or so), with the rate
+            // and what is left: a large survey runs for minutes.
             let started = std::time::Instant::now();
             let last = std::sync::Mutex::new(started);
+            let bar = Bar::start(count as u64, "designs");
             let progress = |done: usize| {
+                if let Some(bar) = &bar {
+                    bar.set_position(done as u64);
+                    let rate = done as f64 / started.elapsed().as_secs_f64().max(1e-9);
+                    if done > 0 {
+                        bar.set_message(format!(
+                            "{rate:.0}/s, about {} left",
+                            strider_proto::process::duration_words(
+                                (count - done) as f64 / rate.max(1e-9)
+                            )
+                        ));
+                    }
+                    return;
+                }
                 let Ok(mut last) = last.try_lock() else {
                     return;
                 };
@@ -396,6 +411,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             };
             let survey = Survey::run(&ctx, scheme, seed, count, threads, &progress);
+            drop(bar);
             if let Some(path) = csv {
                 let file = std::fs::File::create(&path)
                     .with_context(|| format!("creating {}", path.display()))?;

@@ -166,6 +166,15 @@ impl Shared {
         self.started.elapsed().as_secs_f64()
     }
 
+    /// Candidates the experiment evaluates, every run's initial population and
+    /// generations (ES candidates count once).
+    pub fn candidates_budget(&self) -> u64 {
+        self.with(false, |s| {
+            let e = s.experiment();
+            (u64::from(e.run.initial_population) + e.offspring_per_run()) * e.runs().len() as u64
+        })
+    }
+
     /// How much of the experiment is done, 0 to 1 ([`crate::scheduler::fraction_done`]).
     pub fn fraction_done(&self) -> f64 {
         self.with(false, |s| {

@@ -19,6 +19,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strider_common::Experiment;
 use strider_proto::process::duration_words;
+use strider_proto::terminal::Bar;
 use strider_proto::v1;
 use strider_proto::v1::client_service_server::ClientServiceServer;
 use strider_proto::v1::worker_service_server::WorkerServiceServer;
@@ -262,6 +263,8 @@ pub async fn serve(
     };
     for t in tasks {
         t.abort();
+        // Awaited, so that a progress bar is cleared before the closing lines print.
+        let _ = t.await;
     }
     // Sessions tell their workers the experiment is over (or see the stream end); give
     // them a moment, then stop serving whatever is left.
@@ -279,7 +282,7 @@ pub async fn serve(
         },
     }
     if shared.with(false, |s| s.finished()) {
-        eprintln!("{}", progress_line(&shared));
+        strider_proto::note!("{}", progress_line(&shared));
         ended = Ended::Finished;
     }
     // Sessions whose workers had not left by now end with the coordinator.
@@ -379,15 +382,48 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
     }));
     if let Some(period) = opts.progress_every {
         tasks.push(tokio::spawn(async move {
+            // On a terminal, a bar redrawn in place; elsewhere a line every `period`.
+            if let Some(bar) = Bar::start(shared.candidates_budget(), "candidates") {
+                let mut every = tokio::time::interval(Duration::from_millis(250));
+                loop {
+                    every.tick().await;
+                    let (position, message) = progress_bar_state(&shared);
+                    bar.set_position(position);
+                    bar.set_message(message);
+                }
+            }
             let mut every = tokio::time::interval(period);
             every.tick().await;
             loop {
                 every.tick().await;
-                eprintln!("{}", progress_line(&shared));
+                strider_proto::note!("{}", progress_line(&shared));
             }
         }));
     }
     tasks
+}
+
+/// Where the terminal bar stands (candidates, in whole generations, of the budget) and
+/// its text: rate, workers, time left, feasible cells and the best fitness.
+fn progress_bar_state(shared: &Shared) -> (u64, String) {
+    let p = progress(shared);
+    let position = (p.fraction_done * shared.candidates_budget() as f64).round() as u64;
+    // The time left first: a narrow terminal cuts the end of the line.
+    let left = match p.eta_seconds {
+        Some(s) => format!("about {} left, ", duration_words(s)),
+        None => String::new(),
+    };
+    let feasible: u32 = p.runs.iter().map(|r| r.feasible_elites).sum();
+    let best = p
+        .runs
+        .iter()
+        .map(|r| r.best_fitness)
+        .fold(0.0_f64, f64::max);
+    let message = format!(
+        "{left}{:.1}/s, {feasible} feasible cells, best {best:.3}, {} workers",
+        p.trials_per_second, p.workers_connected,
+    );
+    (position, message)
 }
 
 /// Above this many runs, the progress line sums them up instead of listing each.
