@@ -192,6 +192,10 @@ enum Command {
     Check {
         /// Experiment file (TOML).
         experiment: PathBuf,
+        /// Skip the second of full-length trials that measures this machine's speed (the
+        /// cost is then estimated from a figure measured on the development machine).
+        #[arg(long)]
+        no_calibration: bool,
     },
 }
 
@@ -366,7 +370,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             workers,
         } => return runtime()?.block_on(verify(&db, sample, workers)),
         Command::Report { db, out, run } => runtime()?.block_on(report(&db, &out, run)),
-        Command::Check { experiment } => check(&experiment),
+        Command::Check {
+            experiment,
+            no_calibration,
+        } => check(&experiment, !no_calibration),
     };
     done.map(|()| ExitCode::SUCCESS)
 }
@@ -922,7 +929,7 @@ fn hours_text(h: f64) -> String {
     }
 }
 
-fn check(path: &Path) -> anyhow::Result<()> {
+fn check(path: &Path, calibrate: bool) -> anyhow::Result<()> {
     let e = Experiment::load(path)?;
     let runs = e.runs();
     outln!(
@@ -973,12 +980,10 @@ fn check(path: &Path) -> anyhow::Result<()> {
                 .min(e.trial.upright_after_max_tilt_degrees)
         );
     }
-    // What it costs, from MAX's measured trial (BENCHMARKS.md: 22.4 ms of one core for
-    // 6 simulated seconds at 30 steps/s, 0.124 ms a physics step); most random designs end
-    // sooner (they fall or touch themselves), so these are upper figures.
+    // What it costs: every trial (an ES candidate is many) at the cost of one that walks
+    // to its end, measured now on this machine, or else from MAX's measured trial on the
+    // development machine (BENCHMARKS.md: 0.124 ms a physics step on one core).
     let per_run = u64::from(e.run.initial_population) + e.offspring_per_run();
-    let steps = (e.run.trial_seconds + e.trial.upright_after_seconds) / e.run.physics_dt();
-    let trial_seconds = steps * 0.124e-3;
     let trials: u64 = runs
         .iter()
         .map(|r| match r.scheme {
@@ -986,10 +991,8 @@ fn check(path: &Path) -> anyhow::Result<()> {
             _ => per_run,
         })
         .sum();
-    let core_hours = trials as f64 * trial_seconds / 3600.0;
-    let cores = default_threads().get();
     outln!(
-        "cost: {} candidates, at most {} trials (an ES candidate is {} trials){}; at most {} of one core at {:.1} ms a trial (MAX's; most designs end sooner), {} on this machine's {} cores",
+        "cost: {} candidates, at most {} trials (an ES candidate is {} trials){}",
         per_run * runs.len() as u64,
         trials,
         e.run.es_iterations + 1,
@@ -998,10 +1001,38 @@ fn check(path: &Path) -> anyhow::Result<()> {
                 ", plus the initial draws until enough meet the whole brief (unbounded)",
             _ => "",
         },
-        hours_text(core_hours),
-        trial_seconds * 1e3,
-        hours_text(core_hours / cores as f64),
-        cores
+    );
+    let cores = default_threads();
+    let (thread_seconds, upper, source) = if calibrate {
+        let c = strider_worker::calibrate::calibrate(
+            &e.run,
+            &e.trial,
+            &e.brief,
+            cores,
+            Duration::from_secs(1),
+        );
+        (
+            c.thread_seconds_per_trial(),
+            c.upper_bound(trials),
+            format!(
+                "measured now: {} trials of MAX to their end in {:.1} s",
+                c.trials, c.wall_seconds
+            ),
+        )
+    } else {
+        let steps = (e.run.trial_seconds + e.trial.upright_after_seconds) / e.run.physics_dt();
+        let per_trial = steps * 0.124e-3;
+        (
+            per_trial,
+            trials as f64 * per_trial / cores.get() as f64,
+            "from MAX's trial on the development machine; --no-calibration".to_string(),
+        )
+    };
+    outln!(
+        "time on this machine's {} cores: at most {} ({:.1} ms of one core a trial that walks to its end, {source}); most trials end sooner in a fall or are settled without one: the whole runs in BENCHMARKS.md took a quarter to a half of this figure",
+        cores,
+        hours_text(upper / 3600.0),
+        thread_seconds * 1e3,
     );
     for r in runs {
         outln!(

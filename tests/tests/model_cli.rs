@@ -146,6 +146,20 @@ fn check_lists_the_paper_runs() {
         text.contains("cost: 14424000 candidates, at most 110584000 trials"),
         "{text}"
     );
+    // And how long, from full-length trials simulated now on this machine.
+    assert!(text.contains("time on this machine's"), "{text}");
+    assert!(text.contains("trials of MAX to their end in"), "{text}");
+
+    let out = run(
+        "strider-coordinator",
+        &["check", "experiments/paper.toml", "--no-calibration"],
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("from MAX's trial on the development machine"),
+        "{text}"
+    );
+    assert!(!text.contains("measured now"), "{text}");
 }
 
 #[test]

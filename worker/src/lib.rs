@@ -1,6 +1,7 @@
 //! Strider's worker: simulates candidates in rapier3d and evaluates them under a scheme.
 
 pub mod batch;
+pub mod calibrate;
 pub mod cli;
 pub mod client;
 pub mod es;

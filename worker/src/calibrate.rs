@@ -1,0 +1,110 @@
+//! How long an experiment takes on this machine, measured in a moment: full-length trials
+//! of the reference design MAX (`designs/max.json`) on every thread at once, under the
+//! experiment's own trial length and physics step, give the wall time of one trial to its
+//! end with every core busy. That is the cost of a trial that walks; the many that fall
+//! or are refused before a trial cost less, so it bounds a run from above.
+
+use crate::batch::map_batch;
+use crate::sim::trial::{run_trial_from, TrialEnd};
+use std::num::NonZeroUsize;
+use std::time::{Duration, Instant};
+use strider_common::experiment::{RunSettings, TrialLimits};
+use strider_common::{BodyPlan, Controller, DesignBrief, Genome, StartPose};
+
+/// The reference design: it walks upright under the STATIC controller.
+const MAX_JSON: &str = include_str!("../../designs/max.json");
+
+/// What a calibration measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Calibration {
+    /// Full-length trials simulated.
+    pub trials: usize,
+    /// Threads they ran on, at once.
+    pub threads: usize,
+    /// Wall time they took.
+    pub wall_seconds: f64,
+    /// Simulated seconds of one trial (the trial and the upright window after it).
+    pub simulated_seconds: f64,
+}
+
+impl Calibration {
+    /// Wall seconds per full-length trial with every thread busy (trials overlap).
+    pub fn seconds_per_trial(&self) -> f64 {
+        self.wall_seconds / self.trials as f64
+    }
+
+    /// Wall seconds one thread spends on one full-length trial.
+    pub fn thread_seconds_per_trial(&self) -> f64 {
+        self.seconds_per_trial() * self.threads as f64
+    }
+
+    /// Wall seconds for `trials` full-length trials on this machine's `threads`.
+    pub fn upper_bound(&self, trials: u64) -> f64 {
+        trials as f64 * self.seconds_per_trial()
+    }
+}
+
+/// Simulates MAX to the end of the trial (falls are not checked: the point is the cost of
+/// a whole trial) in rounds of one trial per thread until `at_least` has passed, at most
+/// 64 rounds.
+pub fn calibrate(
+    settings: &RunSettings,
+    limits: &TrialLimits,
+    brief: &DesignBrief,
+    threads: NonZeroUsize,
+    at_least: Duration,
+) -> Calibration {
+    let genome: Genome = serde_json::from_str(MAX_JSON).expect("designs/max.json is a genome");
+    let plan = BodyPlan::new(&genome.morphology, brief.payload);
+    let controller = Controller::static_default();
+    let pose = StartPose::new(&plan, &controller);
+    let whole = TrialLimits {
+        max_tilt_degrees: 180.0,
+        min_height_fraction: 0.0,
+        only_feet_on_ground: false,
+        upright_after_max_tilt_degrees: 180.0,
+        ..*limits
+    };
+    let round: Vec<usize> = (0..threads.get()).collect();
+    let started = Instant::now();
+    let mut trials = 0;
+    for _ in 0..64 {
+        let ends = map_batch(&round, threads, |_| {
+            run_trial_from(&plan, &pose, &controller, settings, &whole, &mut ())
+        });
+        trials += ends.len();
+        debug_assert!(ends.iter().all(|e| matches!(e, TrialEnd::Completed(_))));
+        if started.elapsed() >= at_least {
+            break;
+        }
+    }
+    Calibration {
+        trials,
+        threads: threads.get(),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        simulated_seconds: settings.trial_seconds + limits.upright_after_seconds,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_calibration_runs_whole_trials_and_scales_to_an_experiment() {
+        let c = calibrate(
+            &RunSettings::default(),
+            &TrialLimits::default(),
+            &DesignBrief::default(),
+            NonZeroUsize::new(2).unwrap(),
+            Duration::ZERO,
+        );
+        // One round of one trial per thread, each the 5 s trial and the 1 s after it.
+        assert_eq!((c.trials, c.threads), (2, 2));
+        assert_eq!(c.simulated_seconds, 6.0);
+        assert!(c.wall_seconds > 0.0);
+        let per = c.seconds_per_trial();
+        assert!((c.upper_bound(1000) - 1000.0 * per).abs() < 1e-9);
+        assert!((c.thread_seconds_per_trial() - 2.0 * per).abs() < 1e-12);
+    }
+}
