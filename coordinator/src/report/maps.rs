@@ -2,7 +2,7 @@
 //! x = (d1 b + d3) b + d5, y = (d2 b + d4) b + d6, heavier lines every b^2 cells, the
 //! reference design marked) and the fifteen best-per-pair marginal maps.
 
-use super::svg::{colour, colour_bar, document, text, vertical_text, EMPTY};
+use super::svg::{colour, colour_bar, document, escape, text, vertical_text, EMPTY};
 use crate::library::{InfeasibleLibrary, Library};
 use std::fmt::Write;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES, FEATURE_UNITS};
@@ -136,7 +136,8 @@ pub fn stacking_svg(
         scale.hi,
         &scale.note(),
     );
-    document(LEFT + side + 30.0, TOP + side + 100.0, &s)
+    let (w, h) = stacked_size(grid, side);
+    document(w, h.max(TOP + side + 100.0), &s)
 }
 
 /// A colour per constraint that binds, nearest the brief first (and the feasible colour).
@@ -211,7 +212,8 @@ pub fn frontier_svg(
         .filter_map(|c| frontier_colour(library, infeasible, c).map(|f| (c, f.to_string())));
     let side = stack(&mut s, grid, painted, marked, title);
     frontier_legend(&mut s, LEFT, TOP + side + 60.0);
-    document(LEFT + side + 30.0, TOP + side + 90.0, &s)
+    let (w, h) = stacked_size(grid, side);
+    document(w, h.max(TOP + side + 90.0), &s)
 }
 
 /// Draws the stacked grid with `painted` cells into `s`; returns its side, px.
@@ -304,6 +306,9 @@ fn stack(
             axis_title(5)
         ),
     );
+    if b > 1 {
+        stack_key(s, grid, LEFT + side + KEY_GAP, TOP);
+    }
     if let Some((cell, name)) = marked {
         let (x, y) = stacked_position(grid, cell);
         let (cx, cy) = (
@@ -317,6 +322,135 @@ fn stack(
         text(s, cx + 10.0, cy - 8.0, 12.0, "start", name);
     }
     side
+}
+
+/// Cell side in the key, px: large enough for the innermost tick labels.
+const KEY_CELL: f64 = 14.0;
+/// Space between the map and its key, px (the key's left labels sit in it).
+const KEY_GAP: f64 = 80.0;
+/// Room right of the key for the innermost rows' labels, px.
+const KEY_RIGHT: f64 = 90.0;
+
+/// Width and height of a stacked picture whose map is `side` px, with its key.
+fn stacked_size(grid: &FeatureGrid, side: f64) -> (f64, f64) {
+    let key = f64::from(grid.bins * grid.bins) * KEY_CELL;
+    (LEFT + side + KEY_GAP + key + KEY_RIGHT, TOP + key + 160.0)
+}
+
+/// The key to the map's inner levels: one block (d1 and d2 fixed) drawn large, with the
+/// middle level's bins (d3 across, d4 up) and the innermost level's (d5, d6) labelled,
+/// since the map itself has room only for the outer labels.
+fn stack_key(s: &mut String, grid: &FeatureGrid, x0: f64, y0: f64) {
+    let b = grid.bins;
+    let n = b * b;
+    let side = f64::from(n) * KEY_CELL;
+    let middle = f64::from(b) * KEY_CELL;
+    let y_top = y0 + 72.0;
+    text(
+        s,
+        x0,
+        y0 - 8.0,
+        12.0,
+        "start",
+        "Key: one block of the map, enlarged",
+    );
+    text(
+        s,
+        x0,
+        y0 + 8.0,
+        10.0,
+        "start",
+        "(every block of the map repeats it, and every sub-block the innermost ticks)",
+    );
+    let _ = writeln!(
+        s,
+        r##"<rect x="{x0:.1}" y="{y_top:.1}" width="{side}" height="{side}" fill="{EMPTY}" stroke="#222" stroke-width="1.6"/>"##
+    );
+    for k in 1..n {
+        let (w, c) = if k % b == 0 {
+            (1.0, "#666")
+        } else {
+            (0.4, "#bbb")
+        };
+        let p = f64::from(k) * KEY_CELL;
+        let _ = writeln!(
+            s,
+            r#"<line x1="{:.1}" y1="{y_top:.1}" x2="{:.1}" y2="{:.1}" stroke="{c}" stroke-width="{w}"/><line x1="{x0:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{c}" stroke-width="{w}"/>"#,
+            x0 + p,
+            x0 + p,
+            y_top + side,
+            y_top + side - p,
+            x0 + side,
+            y_top + side - p
+        );
+    }
+    // Middle level: d3 under each column of sub-blocks, d4 left of each row.
+    for k in 0..b {
+        let c = f64::from(k) + 0.5;
+        text(
+            s,
+            x0 + c * middle,
+            y_top + side + 14.0,
+            8.5,
+            "middle",
+            &bin_label(grid, 2, k),
+        );
+        vertical_text(
+            s,
+            x0 - 10.0,
+            y_top + side - c * middle,
+            8.5,
+            &bin_label(grid, 3, k),
+        );
+    }
+    text(
+        s,
+        x0 + side / 2.0,
+        y_top + side + 30.0,
+        11.0,
+        "middle",
+        &format!("{} (middle level, across)", axis_title(2)),
+    );
+    vertical_text(
+        s,
+        x0 - 26.0,
+        y_top + side / 2.0,
+        11.0,
+        &format!("{} (middle level, up)", axis_title(3)),
+    );
+    // Innermost level: d5 above the left column of sub-blocks, d6 right of the bottom row.
+    for k in 0..b {
+        let c = f64::from(k) + 0.5;
+        let _ = writeln!(
+            s,
+            r#"<text x="{x:.1}" y="{y:.1}" font-family="sans-serif" font-size="8" text-anchor="start" transform="rotate(-90 {x:.1} {y:.1})">{}</text>"#,
+            escape(&bin_label(grid, 4, k)),
+            x = x0 + c * KEY_CELL + 2.5,
+            y = y_top - 3.0,
+        );
+        text(
+            s,
+            x0 + side + 4.0,
+            y_top + side - c * KEY_CELL + 3.0,
+            8.0,
+            "start",
+            &bin_label(grid, 5, k),
+        );
+    }
+    let innermost = [
+        format!("innermost level: {} across (ticks above)", axis_title(4)),
+        format!("and {} up (ticks at right)", axis_title(5)),
+    ];
+    for (i, line) in innermost.iter().enumerate() {
+        text(
+            s,
+            x0,
+            y_top + side + 48.0 + 14.0 * i as f64,
+            11.0,
+            "start",
+            line,
+        );
+    }
 }
 
 /// Best fitness per pair of bins of features `i` and `j` (None: no elite there),
@@ -494,6 +628,26 @@ mod tests {
         let even = Scale::robust([1.0, 2.0]);
         assert_eq!((even.hi, even.max), (2.0, 2.0));
         assert!(!even.note().contains("percentile"));
+    }
+
+    #[test]
+    fn the_stacked_map_labels_every_level_of_every_feature() {
+        let grid = FeatureGrid::default();
+        let svg = stacking_svg(&grid, &Library::new(), Scale::robust([1.0]), None, "t");
+        // Outer bins on the map, middle and innermost bins in its key, each feature's
+        // every bin with its unit.
+        for feature in 0..FEATURE_COUNT {
+            for bin in 0..grid.bins {
+                let label = escape(&bin_label(&grid, feature, bin));
+                assert!(
+                    svg.contains(&format!(">{label}</text>")),
+                    "d{} bin {bin}: {label}",
+                    feature + 1
+                );
+            }
+        }
+        assert!(svg.contains("middle level, across"), "{svg}");
+        assert!(svg.contains("innermost level: d5"), "{svg}");
     }
 
     #[test]
