@@ -55,11 +55,25 @@ pub struct UrdfStartPose {
     pub base_rpy: [f64; 3],
     /// Joint angles by joint name ([`joint_name`]), rad.
     pub joints: std::collections::BTreeMap<String, f64>,
+    /// Each foot: the tip of a lower leg, where it is in its link and where it stands in
+    /// this pose, so that another tool can check it loaded the design as we model it.
+    pub feet: Vec<UrdfFoot>,
+}
+
+/// A foot of [`UrdfStartPose`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UrdfFoot {
+    /// The lower leg's link name ([`link_name`]).
+    pub link: String,
+    /// The foot tip in that link's frame, m.
+    pub tip_in_link: [f64; 3],
+    /// The foot tip in the world in the start pose, m (URDF axes; z = 0 is the ground).
+    pub start_xyz: [f64; 3],
 }
 
 impl UrdfStartPose {
     /// `pose` (of `plan`) in URDF's axes.
-    pub fn new(pose: &crate::StartPose) -> Self {
+    pub fn new(plan: &BodyPlan, pose: &crate::StartPose) -> Self {
         let at = urdf_from_model() * pose.body.translation.vector;
         let (r, p, y) =
             (urdf_from_model() * pose.body.rotation * urdf_from_model().inverse()).euler_angles();
@@ -69,10 +83,25 @@ impl UrdfStartPose {
             .enumerate()
             .flat_map(|(l, q)| (0..3).map(move |k| (joint_name(l, k), q[k])))
             .collect();
+        let feet = plan
+            .legs
+            .iter()
+            .enumerate()
+            .map(|(l, leg)| {
+                let tip = nalgebra::Point3::new(0.0, 0.0, leg.links[2].length);
+                let world = urdf_from_model() * (pose.link_poses[l][2] * tip);
+                UrdfFoot {
+                    link: link_name(l, 2),
+                    tip_in_link: [tip.x, tip.y, tip.z],
+                    start_xyz: [world.x, world.y, world.z],
+                }
+            })
+            .collect();
         UrdfStartPose {
             base_xyz: [at.x, at.y, at.z],
             base_rpy: [r, p, y],
             joints,
+            feet,
         }
     }
 
@@ -104,7 +133,7 @@ pub fn write_files(
     };
     std::fs::write(path, to_urdf(name, plan)).map_err(|e| with_path(e, path))?;
     let pose = start_pose_path(path);
-    let start = UrdfStartPose::new(&crate::StartPose::new(plan, controller));
+    let start = UrdfStartPose::new(plan, &crate::StartPose::new(plan, controller));
     std::fs::write(&pose, start.to_json() + "\n").map_err(|e| with_path(e, &pose))?;
     Ok(pose)
 }

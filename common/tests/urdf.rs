@@ -89,7 +89,7 @@ fn check(genome: &Genome) {
     // The start pose written beside the URDF: its base pose and joint angles, through the
     // parsed joints, put every foot where the model's start pose does, in a world with
     // URDF's axes, with the body at its start height above the ground (z = 0).
-    let json = UrdfStartPose::new(&start).to_json();
+    let json = UrdfStartPose::new(&plan, &start).to_json();
     let written: UrdfStartPose = serde_json::from_str(&json).unwrap();
     assert_eq!(written.joints.len(), robot.joints.len());
     let base = Isometry3::from_parts(
@@ -122,7 +122,16 @@ fn check(genome: &Genome) {
             (foot - want).norm() < 1e-9,
             "leg {l} foot: {foot} vs {want}"
         );
+        // The feet the JSON states, for other tools to check against, are these.
+        let stated = &written.feet[l];
+        assert_eq!(stated.link, link_name(l, 2));
+        assert!(
+            (v(&stated.start_xyz) - foot.coords).norm() < 1e-9,
+            "leg {l}"
+        );
+        assert!((at * nalgebra::Point3::from(v(&stated.tip_in_link)) - foot).norm() < 1e-9);
     }
+    assert_eq!(written.feet.len(), plan.legs.len());
 
     // The body's mass sits where the model's does, turned into URDF axes (y up -> z up).
     let body = link("body");

@@ -1,0 +1,67 @@
+//! A second engine's view of a design: PyBullet loads `strider-worker urdf designs/max.json`
+//! at the start pose written beside it, puts every foot where our model does, reads the
+//! model's mass, and stands the robot on a plane with its joints held.
+
+use std::process::Command;
+use strider_tests::{run_ok, skip_without, temp_dir, workspace_root};
+
+/// A Python that has PyBullet (`.ci/run` installs it with pip), if any.
+fn python_with_pybullet() -> Option<&'static str> {
+    ["python3", "/usr/bin/python3"].into_iter().find(|py| {
+        Command::new(py)
+            .args(["-c", "import pybullet"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+#[test]
+fn pybullet_loads_max_at_its_start_pose_with_the_feet_where_the_model_puts_them() {
+    let Some(python) = python_with_pybullet() else {
+        skip_without("PyBullet (python3 -m pip install pybullet)");
+        return;
+    };
+    let dir = temp_dir("pybullet");
+    let urdf = dir.join("max.urdf");
+    run_ok(
+        "strider-worker",
+        &["urdf", "designs/max.json", "--out", urdf.to_str().unwrap()],
+    );
+    let inspected: serde_json::Value = serde_json::from_slice(
+        &run_ok("strider-worker", &["inspect", "designs/max.json", "--json"]).stdout,
+    )
+    .unwrap();
+    let out = Command::new(python)
+        .arg(workspace_root().join("tests/python/pybullet_start_pose.py"))
+        .arg(&urdf)
+        .arg(dir.join("max.start_pose.json"))
+        .output()
+        .expect("python starts");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let seen: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let f = |k: &str| seen[k].as_f64().unwrap_or_else(|| panic!("{k} in {seen}"));
+
+    // Six feet, each within 1 cm of the model's (they agree to rounding).
+    assert_eq!(seen["feet"].as_array().unwrap().len(), 6, "{seen}");
+    assert!(f("worst_foot_error_m") < 0.01, "{seen}");
+    // The mass PyBullet read is the model's.
+    let mass = inspected["total_mass"].as_f64().unwrap();
+    assert!(
+        (f("mass_kg") - mass).abs() < 0.01,
+        "{} vs {mass}",
+        f("mass_kg")
+    );
+    // Held at its start angles, it stands: the body within 5 cm of its start height and
+    // within 5 degrees of level after 2 s (with no ground under it, or motors too weak to
+    // hold it, it falls metres).
+    assert!(
+        (f("height_after_2s_m") - f("start_height_m")).abs() < 0.05,
+        "{seen}"
+    );
+    assert!(f("tilt_after_2s_degrees") < 5.0, "{seen}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
