@@ -133,7 +133,123 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     assert!(map.contains("d2 total_mass (kg)"), "{map}");
     assert!(map.contains("linear"), "{map}");
     assert!(html.contains("The red ring marks MAX"));
+    look_at_it_in_chromium(&pages, &dir);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Debian's Chromium, if installed (`.ci/run` installs it).
+fn chromium() -> Option<&'static str> {
+    ["chromium", "chromium-browser"]
+        .into_iter()
+        .find(|c| strider_tests::installed(c))
+}
+
+/// Runs headless Chromium on the report with `args`; returns its stdout.
+fn headless(
+    chromium: &str,
+    profile: &std::path::Path,
+    page: &std::path::Path,
+    args: &[&str],
+) -> String {
+    // No network, no first-run work: on a closed machine these would only fail and slow
+    // the start.
+    let out = std::process::Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--hide-scrollbars",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(args)
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .expect("chromium starts");
+    assert!(
+        out.status.success(),
+        "chromium {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The page as a browser renders it: the DOM Chromium builds holds the key elements
+/// (the QD-score curves, legends with units), and a screenshot of the top of the page is
+/// a page of pictures, not a blank or an error page.
+fn look_at_it_in_chromium(pages: &std::path::Path, dir: &std::path::Path) {
+    let Some(chromium) = chromium() else {
+        strider_tests::skip_without("Chromium (Debian's chromium package)");
+        return;
+    };
+    let page = pages.join("report.html");
+    let dom = headless(chromium, &dir.join("profile-dom"), &page, &["--dump-dom"]);
+    for (what, needle) in [
+        (
+            "the QD-score curve",
+            "<figure id=\"qd_score\" class=\"small\">\n<svg",
+        ),
+        (
+            "the QD score against evaluations",
+            "<figure id=\"qd_score_by_evaluations\"",
+        ),
+        ("the QD score's axis", "QD score (sum of fitness)"),
+        ("the evaluations axis", "evaluations (candidates)"),
+        (
+            "the colour legend with its unit",
+            "fitness (1 / cost of transport)",
+        ),
+        ("a map axis with its unit", "d2 total_mass (kg)"),
+        ("the map's key", "Key: one block of the map, enlarged"),
+    ] {
+        assert!(
+            dom.contains(needle),
+            "no {what} ({needle}) in the page Chromium built"
+        );
+    }
+
+    let shot = dir.join("report.png");
+    headless(
+        chromium,
+        &dir.join("profile-shot"),
+        &page,
+        &[
+            "--window-size=1280,2000",
+            &format!("--screenshot={}", shot.display()),
+        ],
+    );
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&shot).unwrap()));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+    let frame = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!((frame.width, frame.height), (1280, 2000));
+    let channels = frame.color_type.samples();
+    let rgb: Vec<&[u8]> = pixels[..frame.buffer_size()]
+        .chunks(channels)
+        .map(|p| &p[..3])
+        .collect();
+    let inked = rgb.iter().filter(|p| p.iter().any(|&c| c < 200)).count();
+    let colours: std::collections::HashSet<&[u8]> = rgb.iter().copied().collect();
+    // Text, axes and coloured curves: a blank page has one colour, an error page a few.
+    assert!(
+        inked * 50 > rgb.len(),
+        "{inked} of {} pixels inked",
+        rgb.len()
+    );
+    assert!(colours.len() > 200, "{} colours", colours.len());
+    // Two curves side by side at the top: ink on both halves of the first rows of pictures.
+    let row = |y: usize, x0: usize, x1: usize| {
+        (x0..x1).any(|x| rgb[y * 1280 + x].iter().any(|&c| c < 200))
+    };
+    let (left, right) = (
+        (300..700).any(|y| row(y, 0, 640)),
+        (300..700).any(|y| row(y, 640, 1280)),
+    );
+    assert!(left && right, "the first curves are not side by side");
 }
 
 #[test]

@@ -28,6 +28,13 @@ const BOTTOM: f64 = 50.0;
 /// A chart titled `title` of `series`, axes labelled `x_label` and `y_label`.
 pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
     let pts = series.iter().flat_map(|s| &s.points);
+    // Every figure drawn (QD score, fitness, coverage) is never negative: a band reaching
+    // below zero (mean 0.1, sd 0.15) would show values that cannot occur, so it stops at 0.
+    let floor = if pts.clone().all(|&(_, m, _)| m >= 0.0) {
+        0.0
+    } else {
+        f64::NEG_INFINITY
+    };
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
         f64::NEG_INFINITY,
@@ -37,7 +44,7 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     for &(g, m, sd) in pts {
         x0 = x0.min(g);
         x1 = x1.max(g);
-        y0 = y0.min(m - sd);
+        y0 = y0.min((m - sd).max(floor));
         y1 = y1.max(m + sd);
     }
     if !x0.is_finite() {
@@ -95,7 +102,7 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
             .points
             .iter()
             .rev()
-            .map(|&(g, m, sd)| format!("{:.1},{:.1}", px(g), py(m - sd)))
+            .map(|&(g, m, sd)| format!("{:.1},{:.1}", px(g), py((m - sd).max(floor))))
             .collect();
         let _ = writeln!(
             b,
@@ -135,4 +142,28 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
         );
     }
     document(W, H, &b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(points: Vec<(f64, f64, f64)>) -> String {
+        let series = Series {
+            name: "static".into(),
+            colour: SCHEME_COLOURS[0],
+            points,
+        };
+        line_chart("t", "generation", "fitness", &[series])
+    }
+
+    #[test]
+    fn a_band_of_a_figure_that_cannot_be_negative_stops_at_zero() {
+        // Mean 0.1, sd 0.5: the band would reach -0.4.
+        let svg = chart(vec![(0.0, 0.1, 0.5), (1.0, 0.2, 0.5)]);
+        assert!(!svg.contains(">-0"), "a negative tick: {svg}");
+        // A series that goes negative keeps its whole band.
+        let svg = chart(vec![(0.0, -0.1, 0.15), (1.0, 0.2, 0.15)]);
+        assert!(svg.contains(">-0.2<"), "{svg}");
+    }
 }

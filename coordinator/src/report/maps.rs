@@ -496,9 +496,10 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
         scale.hi,
         &scale.note(),
     );
+    // Room for the colour bar's note (42 px below its top, 10 px type).
     document(
         50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
-        height + 40.0,
+        height + 52.0,
         &s,
     )
 }

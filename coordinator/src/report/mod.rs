@@ -787,10 +787,25 @@ fn chosen_designs<'a>(
         .collect()
 }
 
+/// Pictures narrower than this (px) sit side by side on the page, as small multiples: six
+/// curves one under another were a long scroll (seen in a headless-Chromium screenshot).
+const SMALL_PICTURE: f64 = 600.0;
+
+/// The width an SVG document states, px.
+fn svg_width(svg: &str) -> Option<f64> {
+    let head = &svg[..svg.find('>')?];
+    let at = head.find(" width=\"")? + " width=\"".len();
+    head[at..].split('"').next()?.parse().ok()
+}
+
 fn push_picture(page: &mut String, p: &Picture) {
+    let class = match svg_width(&p.svg) {
+        Some(w) if w < SMALL_PICTURE => " class=\"small\"",
+        _ => "",
+    };
     let _ = writeln!(
         page,
-        "<figure id=\"{}\">\n{}<figcaption>{} <a href=\"{}.svg\">SVG</a> · <a href=\"{}.png\">PNG</a></figcaption>\n</figure>",
+        "<figure id=\"{}\"{class}>\n{}<figcaption>{} <a href=\"{}.svg\">SVG</a> · <a href=\"{}.png\">PNG</a></figcaption>\n</figure>",
         p.name,
         p.svg,
         escape(&p.caption),
@@ -825,7 +840,10 @@ th, td {{ border: 1px solid #bbb; padding: 3px 8px; text-align: right; font-size
 th {{ background: #f0f0f0; }}
 td:first-child, th:first-child {{ text-align: left; }}
 figure {{ margin: 1em 0 2em; overflow-x: auto; }}
+figure > svg {{ max-width: 100%; height: auto; }}
 figcaption {{ font-size: 90%; color: #444; max-width: 900px; }}
+figure.small {{ display: inline-block; vertical-align: top; width: 540px; margin-right: 1.5em; }}
+figure.small figcaption {{ max-width: 520px; }}
 </style>
 </head>
 <body>
