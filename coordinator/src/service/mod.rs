@@ -6,6 +6,7 @@ pub mod auth;
 pub mod client_api;
 pub mod local;
 pub mod metrics;
+pub mod pace;
 pub mod server;
 pub mod worker_api;
 pub mod writer;
@@ -116,8 +117,8 @@ pub struct Shared {
     next_worker: AtomicU64,
     throughput: Mutex<Throughput>,
     started: Instant,
-    /// How much of the experiment was done when this process began serving it.
-    start_fraction: std::sync::OnceLock<f64>,
+    /// The recent pace, for the time left.
+    pace: Mutex<pace::Pace>,
     experiment_toml: String,
     db: crate::db::Db,
 }
@@ -182,15 +183,12 @@ impl Shared {
         })
     }
 
-    /// Seconds left at this process's pace so far, once it has done some of the work:
-    /// an estimate (an ES generation costs more than a STATIC one, a late generation of
-    /// walkers more than an early one of fallers).
+    /// Seconds left at the pace of the last two minutes ([`pace::Pace`]), once this
+    /// process has done some of the work: an estimate.
     pub fn eta(&self, fraction: f64) -> Option<f64> {
-        if fraction >= 1.0 {
-            return Some(0.0);
-        }
-        let start = *self.start_fraction.get()?;
-        let (done, seconds) = (fraction - start, self.uptime());
-        (done > 0.0 && seconds >= 5.0).then(|| seconds * (1.0 - fraction) / done)
+        self.pace
+            .lock()
+            .expect("no panic while estimating")
+            .observe(self.uptime(), fraction)
     }
 }

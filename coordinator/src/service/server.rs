@@ -144,14 +144,14 @@ pub async fn serve(
         next_worker: AtomicU64::new(next_worker),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
-        start_fraction: std::sync::OnceLock::new(),
+        pace: Mutex::new(Default::default()),
         experiment_toml: canonical_toml(&experiment),
         db,
     });
     // Store what opening the steps wrote (draws settled without a trial, new generations).
     shared.with(true, |_| ());
     // Where this process began, for its estimate of the time left.
-    let _ = shared.start_fraction.set(shared.fraction_done());
+    let _ = shared.eta(shared.fraction_done());
 
     let addr = listener.local_addr()?;
     let url = worker_url(addr);

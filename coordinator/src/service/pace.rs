@@ -1,0 +1,79 @@
+//! The time left, from the recent pace: the fraction done over the last two minutes.
+//! The pace since the start misleads in both directions: the initial population (most
+//! designs fall at once, or are settled without a trial) goes fast, and later generations
+//! of walkers, and ES generations, cost more; with the whole-run average an ES run said
+//! "about 4 min left" for two minutes on end while it slowed.
+
+use std::collections::VecDeque;
+
+/// Recent (seconds, fraction done) samples, one a second at most.
+#[derive(Debug, Default)]
+pub struct Pace {
+    samples: VecDeque<(f64, f64)>,
+}
+
+impl Pace {
+    /// How far back the pace is measured, s.
+    pub const WINDOW: f64 = 120.0;
+    /// The shortest span an estimate is made from, s.
+    pub const MIN_SPAN: f64 = 5.0;
+
+    /// Notes `fraction` done at `seconds` and returns the seconds left at the pace of the
+    /// last [`Pace::WINDOW`] (`None` until [`Pace::MIN_SPAN`] of progress is seen).
+    pub fn observe(&mut self, seconds: f64, fraction: f64) -> Option<f64> {
+        if fraction >= 1.0 {
+            return Some(0.0);
+        }
+        if self.samples.back().is_none_or(|&(t, _)| seconds - t >= 1.0) {
+            self.samples.push_back((seconds, fraction));
+        }
+        // Keep one sample at or beyond the window's start.
+        while self.samples.len() > 2 && seconds - self.samples[1].0 >= Self::WINDOW {
+            self.samples.pop_front();
+        }
+        let &(t0, f0) = self.samples.front()?;
+        let (span, done) = (seconds - t0, fraction - f0);
+        (done > 0.0 && span >= Self::MIN_SPAN).then(|| span * (1.0 - fraction) / done)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_steady_pace_gives_the_exact_time_left() {
+        let mut p = Pace::default();
+        assert_eq!(p.observe(0.0, 0.0), None);
+        assert_eq!(p.observe(2.0, 0.02), None, "too short a span yet");
+        // 1 % a second: 90 % left at 10 s is 90 s.
+        let left = p.observe(10.0, 0.1).unwrap();
+        assert!((left - 90.0).abs() < 1e-9, "{left}");
+        assert_eq!(p.observe(20.0, 1.0), Some(0.0));
+    }
+
+    #[test]
+    fn a_run_that_slows_down_is_estimated_at_its_recent_pace() {
+        let mut p = Pace::default();
+        // 0.2 % a second for 5 minutes, then 0.02 % a second for 5 minutes.
+        let mut fraction = 0.0;
+        for t in 0..600 {
+            fraction += if t < 300 { 0.002 } else { 0.0002 };
+            p.observe(f64::from(t + 1), fraction);
+        }
+        let left = p.observe(601.0, fraction + 0.0002).unwrap();
+        // At 0.02 % a second what is left takes (1 - fraction) / 0.0002 s; the average
+        // since the start (0.11 % a second) would say a fifth of that.
+        let want = (1.0 - fraction - 0.0002) / 0.0002;
+        assert!((left - want).abs() / want < 0.02, "{left} vs {want}");
+    }
+
+    #[test]
+    fn no_progress_in_the_window_gives_no_estimate() {
+        let mut p = Pace::default();
+        for t in 0..300 {
+            p.observe(f64::from(t), 0.5);
+        }
+        assert_eq!(p.observe(300.0, 0.5), None);
+    }
+}
