@@ -811,6 +811,16 @@ async fn verify(
         candidates.len(),
         runs.len()
     );
+    // Every row against its checksum: damage that leaves the replay agreeing (an
+    // outcome's figure that no placement depends on) still shows here.
+    let damaged = db.checksum_mismatches(false).await?;
+    outln!(
+        "checked every candidate row against its checksum: {} damaged",
+        damaged.len()
+    );
+    verdict
+        .problems
+        .extend(strider_coordinator::db::damaged_rows(&damaged));
     // Every k-th stored candidate whose outcome a worker computed (a candidate that
     // failed for want of a worker has nothing to reproduce).
     let eligible: Vec<&strider_coordinator::db::StoredCandidate> = candidates
@@ -1029,7 +1039,7 @@ fn check(path: &Path, calibrate: bool) -> anyhow::Result<()> {
         )
     };
     outln!(
-        "time on this machine's {} cores: at most {} ({:.1} ms of one core a trial that walks to its end, {source}); most trials end sooner in a fall or are settled without one: the whole runs in BENCHMARKS.md took a quarter to a half of this figure",
+        "time on this machine's {} cores: at most {} ({:.1} ms of one core a trial that walks to its end, {source}); most trials end sooner in a fall or are settled without one: the whole runs in BENCHMARKS.md took a fifth to a half of this figure",
         cores,
         hours_text(upper / 3600.0),
         thread_seconds * 1e3,

@@ -4,7 +4,7 @@
 //! they can see.
 
 use std::path::{Path, PathBuf};
-use strider_tests::{run, run_ok, sqlite, temp_dir};
+use strider_tests::{candidate_rows, export, run, run_ok, sqlite, temp_dir};
 
 const FIXTURE: &str = "tests/fixtures/service.toml";
 
@@ -132,6 +132,111 @@ fn verify_and_resume_catch_edits_sqlite_cannot_see() {
     let (code, out) = verify(&cell, "0");
     assert_eq!(code, 1, "{out}");
     assert!(out.contains("elites, the replay"), "{out}");
+    resume_refused(&cell, "hold no elite");
 
+    // One digit of a library holder's genome: the search breeds from it after a resume.
+    let holder = corrupted(
+        &db,
+        "holder",
+        "UPDATE candidates SET genome = json_set(genome, '$.morphology.body_half_x', \
+         json_extract(genome, '$.morphology.body_half_x') + 0.001) \
+         WHERE (run_id, number) IN (SELECT run_id, candidate FROM cells LIMIT 1)",
+    );
+    let (code, out) = verify(&holder, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("do not match their checksums"), "{out}");
+    resume_refused(&holder, "do not match their checksums");
+
+    // An elite's fitness changed everywhere it is written, consistently: only the row's
+    // checksum still knows.
+    let everywhere = corrupted(
+        &db,
+        "everywhere",
+        "UPDATE candidates SET fitness = fitness * 2, \
+         outcome = json_set(outcome, '$.fitness', json_extract(outcome, '$.fitness') * 2) \
+         WHERE (run_id, number) IN (SELECT run_id, candidate FROM cells LIMIT 1); \
+         UPDATE cells SET fitness = fitness * 2 WHERE rowid = (SELECT MIN(rowid) FROM cells);",
+    );
+    resume_refused(&everywhere, "do not match their checksums");
+
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Bytes flipped at random in the file, where SQLite's own checks see nothing: every
+/// damaged copy is refused by `verify` (or by SQLite), or holds exactly what the
+/// undamaged file holds.
+#[test]
+fn random_byte_flips_are_caught_or_change_nothing() {
+    let dir = temp_dir("verify-flips");
+    let db = dir.join("whole.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            FIXTURE,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+    let whole = std::fs::read(&db).unwrap();
+    let (want_export, want_rows) = (export(&db), candidate_rows(&db));
+    // A seeded generator (64-bit LCG, Knuth's MMIX constants): the same flips every run.
+    let mut state: u64 = 14;
+    let mut next = |below: usize| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 33) as usize) % below
+    };
+    let (mut caught, mut harmless) = (0, 0);
+    for copy in 0..8 {
+        let mut bytes = whole.clone();
+        for _ in 0..20 {
+            let at = next(bytes.len());
+            bytes[at] ^= 1 << next(8);
+        }
+        let damaged = dir.join(format!("flipped-{copy}.db"));
+        std::fs::write(&damaged, &bytes).unwrap();
+        let (code, out) = verify(&damaged, "0");
+        if code != 0 {
+            caught += 1;
+            continue;
+        }
+        // verify found nothing: then nothing a user reads may differ.
+        assert_eq!(candidate_rows(&damaged), want_rows, "copy {copy}: {out}");
+        assert_eq!(export(&damaged), want_export, "copy {copy}: {out}");
+        harmless += 1;
+    }
+    eprintln!("{caught} damaged copies caught, {harmless} unchanged where it matters");
+    assert!(
+        caught > 0,
+        "no flip landed anywhere that matters: a useless test"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The main file emptied (truncated, or replaced by a new empty one) beside a log that
+/// still holds frames: refused, and both left as they were, not started afresh.
+#[test]
+fn an_empty_database_beside_its_log_is_refused_not_started_again() {
+    let dir = temp_dir("verify-empty");
+    let db = dir.join("lost.db");
+    std::fs::write(&db, b"").unwrap();
+    let wal = dir.join("lost.db-wal");
+    std::fs::write(&wal, vec![7u8; 8192]).unwrap();
+    let out = run(
+        "strider-coordinator",
+        &["run", FIXTURE, "--db", db.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("is empty but its write-ahead log") && err.contains("restore"),
+        "{err}"
+    );
+    assert_eq!(std::fs::metadata(&db).unwrap().len(), 0);
+    assert_eq!(std::fs::read(&wal).unwrap(), vec![7u8; 8192]);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -4,6 +4,7 @@
 //! SQLite commits this one (the two used to run one after the other, and the writer was
 //! the service's bottleneck).
 
+use super::checksum::CandidateColumns;
 use super::{placement_name, standing_figure, Db, DbError, RunPosition, StepCommit, Write};
 use crate::library::GenerationStats;
 use sqlx::Row;
@@ -59,6 +60,27 @@ struct CandidateRow {
     shortfall: Option<&'static str>,
     standing: Option<f64>,
     infeasible_placement: Option<&'static str>,
+    /// Of the columns above ([`super::checksum`]).
+    checksum: i64,
+}
+
+impl CandidateRow {
+    fn columns(&self, run: i64) -> CandidateColumns<'_> {
+        CandidateColumns {
+            run,
+            number: self.number,
+            generation: self.generation,
+            genome: &self.genome,
+            outcome: &self.outcome,
+            kind: self.kind,
+            fitness: self.fitness,
+            cell: self.cell,
+            placement: self.placement,
+            shortfall: self.shortfall,
+            standing: self.standing,
+            infeasible_placement: self.infeasible_placement,
+        }
+    }
 }
 
 /// An infeasible cell's new holder.
@@ -143,7 +165,7 @@ fn step_rows(step: &StepCommit) -> StepRows {
                     }
                     _ => (None, None),
                 };
-                CandidateRow {
+                let mut row = CandidateRow {
                     number: c.number.0 as i64,
                     generation: i64::from(c.generation),
                     genome: json(&c.genome),
@@ -158,7 +180,10 @@ fn step_rows(step: &StepCommit) -> StepRows {
                         .shortfall()
                         .and_then(|_| standing_figure(c.outcome.standing())),
                     infeasible_placement: c.infeasible.map(|p| p.name()),
-                }
+                    checksum: 0,
+                };
+                row.checksum = row.columns(step.run).checksum();
+                row
             })
             .collect(),
         infeasible: step
@@ -349,7 +374,7 @@ async fn write_step(
     let run = step.run;
     for chunk in step.candidates.chunks(ROWS_PER_STATEMENT) {
         let mut q = sqlx::QueryBuilder::new(
-            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement, shortfall, standing, infeasible_placement) ",
+            "INSERT INTO candidates (run_id, number, generation, genome, outcome, kind, fitness, cell, placement, shortfall, standing, infeasible_placement, checksum) ",
         );
         q.push_values(chunk, |mut b, c| {
             b.push_bind(run)
@@ -363,7 +388,8 @@ async fn write_step(
                 .push_bind(c.placement)
                 .push_bind(c.shortfall)
                 .push_bind(c.standing)
-                .push_bind(c.infeasible_placement);
+                .push_bind(c.infeasible_placement)
+                .push_bind(c.checksum);
         });
         q.build().execute(&mut **tx).await?;
     }

@@ -3,6 +3,7 @@
 //! population, or a whole generation with its statistics) is one transaction, so a
 //! coordinator killed at any instant loses at most the work in flight.
 
+pub mod checksum;
 mod group;
 
 pub use group::PreparedGroup;
@@ -39,6 +40,8 @@ pub enum DbError {
     },
     #[error("database {path} is in use by another coordinator ({holder}): stop it first, or use another --db")]
     Locked { path: String, holder: String },
+    #[error("database {path} is empty but its write-ahead log {path}-wal holds {log_bytes} bytes: the database file was truncated or replaced, and the log alone cannot rebuild it (opening it would start the experiment over); restore {path} from a backup, or move both files away to start again")]
+    LogWithoutDatabase { path: String, log_bytes: u64 },
     #[error("locking database {path} through {lock}: {source}")]
     Lock {
         path: String,
@@ -415,6 +418,17 @@ impl Db {
 
     /// Opens (creating if asked) a database file and brings its schema up to date.
     pub async fn open(path: &Path, create: bool) -> Result<Self, DbError> {
+        // An empty main file beside a log with frames in it is a lost database, not a
+        // new one: SQLite would start it afresh and then discard the log.
+        let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).ok();
+        let mut wal = path.as_os_str().to_owned();
+        wal.push("-wal");
+        if let (Some(0), Some(log_bytes @ 1..)) = (size(path), size(Path::new(&wal))) {
+            return Err(DbError::LogWithoutDatabase {
+                path: path.display().to_string(),
+                log_bytes,
+            });
+        }
         let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
             .map_err(|e| DbError::Open {
                 path: path.display().to_string(),
@@ -669,7 +683,54 @@ impl Db {
                 "{bad_infeasible} infeasible library cells name no candidate that missed the brief with that standing"
             ));
         }
+        // Every design that met the brief was placed in its cell, so each such cell has a
+        // holder (a deleted cell row would leave the search a hole).
+        let empty_cells: i64 = sqlx::query(
+            "SELECT COUNT(*) FROM (SELECT DISTINCT run_id, cell FROM candidates WHERE kind = 'valid') v \
+             WHERE NOT EXISTS (SELECT 1 FROM cells l WHERE l.run_id = v.run_id AND l.cell = v.cell)",
+        )
+        .fetch_one(&self.pool)
+        .await?
+        .get(0);
+        if empty_cells > 0 {
+            out.push(format!(
+                "{empty_cells} cells hold no elite though a stored candidate that meets the brief lies in each"
+            ));
+        }
+        out.extend(damaged_rows(&self.checksum_mismatches(true).await?));
         Ok(out)
+    }
+
+    /// The candidate rows whose checksum ([`checksum`]) does not match their columns:
+    /// of the rows the libraries hold (what the search reads again on resume) when
+    /// `libraries_only`, else of every row. Rows written before checksums are skipped.
+    pub async fn checksum_mismatches(
+        &self,
+        libraries_only: bool,
+    ) -> Result<Vec<(i64, i64)>, DbError> {
+        let sql = if libraries_only {
+            format!(
+                "SELECT {cols} FROM candidates c WHERE checksum IS NOT NULL AND ( \
+                 EXISTS (SELECT 1 FROM cells l WHERE l.run_id = c.run_id AND l.candidate = c.number) OR \
+                 EXISTS (SELECT 1 FROM infeasible_cells l WHERE l.run_id = c.run_id AND l.candidate = c.number))",
+                cols = checksum::SELECTED
+            )
+        } else {
+            format!(
+                "SELECT {} FROM candidates WHERE checksum IS NOT NULL",
+                checksum::SELECTED
+            )
+        };
+        let rows = sqlx::query(&sql).fetch_all(&self.pool).await?;
+        let mut bad: Vec<(i64, i64)> = rows
+            .iter()
+            .filter_map(|r| {
+                let (columns, stored) = checksum::CandidateColumns::from_row(r);
+                (stored != Some(columns.checksum())).then_some((columns.run, columns.number))
+            })
+            .collect();
+        bad.sort_unstable();
+        Ok(bad)
     }
 
     /// Every applied candidate of every run, in run and number order.
@@ -941,4 +1002,22 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
 
 fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".into(), |v| v.to_string())
+}
+
+/// Problems naming damaged candidate rows (the first five, and how many in all).
+pub fn damaged_rows(bad: &[(i64, i64)]) -> Option<String> {
+    if bad.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = bad
+        .iter()
+        .take(5)
+        .map(|(run, n)| format!("run {run} candidate {n}"))
+        .collect();
+    Some(format!(
+        "{} candidate rows do not match their checksums, so they were changed after they were written ({}{})",
+        bad.len(),
+        named.join(", "),
+        if bad.len() > 5 { ", ..." } else { "" }
+    ))
 }

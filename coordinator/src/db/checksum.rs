@@ -1,0 +1,213 @@
+//! A checksum per candidate row, written with the row and checked against it: damage
+//! SQLite cannot see (a flipped byte inside a genome's text, an edited fitness) is caught
+//! on resume for the rows the search reads again (the libraries' holders) and by
+//! `verify` for every row.
+//!
+//! FNV-1a (64 bits) over the row's columns in a fixed order, each written as text (REALs
+//! by their bits) and ended by a separator byte: portable, with no dependency, and a
+//! row's checksum never changes with the build. It detects damage, not tampering: whoever
+//! edits a row on purpose can write its checksum too.
+
+use sqlx::Row;
+
+/// The columns of a candidate row the checksum covers, as stored.
+#[derive(Clone, Copy, Debug)]
+pub struct CandidateColumns<'a> {
+    /// `run_id`.
+    pub run: i64,
+    /// `number`.
+    pub number: i64,
+    /// `generation`.
+    pub generation: i64,
+    /// `genome` (JSON).
+    pub genome: &'a str,
+    /// `outcome` (JSON).
+    pub outcome: &'a str,
+    /// `kind`.
+    pub kind: &'a str,
+    /// `fitness`.
+    pub fitness: Option<f64>,
+    /// `cell`.
+    pub cell: Option<i64>,
+    /// `placement`.
+    pub placement: &'a str,
+    /// `shortfall`.
+    pub shortfall: Option<&'a str>,
+    /// `standing`.
+    pub standing: Option<f64>,
+    /// `infeasible_placement`.
+    pub infeasible_placement: Option<&'a str>,
+}
+
+/// The columns a checksum check selects, in [`CandidateColumns::from_row`]'s order.
+pub const SELECTED: &str = "run_id, number, generation, genome, outcome, kind, fitness, cell, \
+     placement, shortfall, standing, infeasible_placement, checksum";
+
+impl<'a> CandidateColumns<'a> {
+    /// The columns of `row` (selected as [`SELECTED`]), and its stored checksum (`None`
+    /// for a row written before checksums).
+    pub fn from_row(row: &'a sqlx::sqlite::SqliteRow) -> (Self, Option<i64>) {
+        (
+            CandidateColumns {
+                run: row.get("run_id"),
+                number: row.get("number"),
+                generation: row.get("generation"),
+                genome: row.get("genome"),
+                outcome: row.get("outcome"),
+                kind: row.get("kind"),
+                fitness: row.get("fitness"),
+                cell: row.get("cell"),
+                placement: row.get("placement"),
+                shortfall: row.get("shortfall"),
+                standing: row.get("standing"),
+                infeasible_placement: row.get("infeasible_placement"),
+            },
+            row.get("checksum"),
+        )
+    }
+
+    /// The row's checksum, stored as SQLite's 64-bit integer (the bits of the u64).
+    pub fn checksum(&self) -> i64 {
+        let mut h = Fnv1a::default();
+        h.field(self.run.to_string().as_bytes());
+        h.field(self.number.to_string().as_bytes());
+        h.field(self.generation.to_string().as_bytes());
+        h.field(self.genome.as_bytes());
+        h.field(self.outcome.as_bytes());
+        h.field(self.kind.as_bytes());
+        h.field(real(self.fitness).as_bytes());
+        h.field(
+            self.cell
+                .map(|c| c.to_string())
+                .unwrap_or_default()
+                .as_bytes(),
+        );
+        h.field(self.placement.as_bytes());
+        h.field(self.shortfall.unwrap_or("").as_bytes());
+        h.field(real(self.standing).as_bytes());
+        h.field(self.infeasible_placement.unwrap_or("").as_bytes());
+        h.0 as i64
+    }
+}
+
+/// A REAL by its bits (`-` for NULL), so that no rounding of a printed figure hides a change.
+fn real(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".to_string(), |v| format!("{:016x}", v.to_bits()))
+}
+
+struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Fnv1a(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    fn byte(&mut self, b: u8) {
+        self.0 ^= u64::from(b);
+        self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+
+    /// `bytes` then a unit separator, so that moving a byte between fields changes the sum.
+    fn field(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.byte(b);
+        }
+        self.byte(0x1f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row() -> CandidateColumns<'static> {
+        CandidateColumns {
+            run: 0,
+            number: 7,
+            generation: 1,
+            genome: r#"{"a":1}"#,
+            outcome: r#"{"valid":{}}"#,
+            kind: "valid",
+            fitness: Some(2.5),
+            cell: Some(42),
+            placement: "new",
+            shortfall: None,
+            standing: None,
+            infeasible_placement: None,
+        }
+    }
+
+    #[test]
+    fn fnv1a_matches_its_reference_values() {
+        // The published FNV-1a 64 test vectors: "" and "a".
+        assert_eq!(Fnv1a::default().0, 0xcbf2_9ce4_8422_2325);
+        let mut h = Fnv1a::default();
+        h.byte(b'a');
+        assert_eq!(h.0, 0xaf63_dc4c_8601_ec8c);
+    }
+
+    #[test]
+    fn any_change_of_a_covered_column_changes_the_checksum() {
+        let base = row().checksum();
+        assert_eq!(base, row().checksum(), "the same row, the same checksum");
+        let changed = [
+            CandidateColumns { run: 1, ..row() },
+            CandidateColumns { number: 8, ..row() },
+            CandidateColumns {
+                generation: 2,
+                ..row()
+            },
+            CandidateColumns {
+                genome: r#"{"a":2}"#,
+                ..row()
+            },
+            CandidateColumns {
+                outcome: r#"{"valid":{ }}"#,
+                ..row()
+            },
+            CandidateColumns {
+                kind: "invalid",
+                ..row()
+            },
+            CandidateColumns {
+                fitness: Some(2.500_000_000_000_001),
+                ..row()
+            },
+            CandidateColumns {
+                fitness: None,
+                ..row()
+            },
+            CandidateColumns {
+                cell: Some(43),
+                ..row()
+            },
+            CandidateColumns {
+                placement: "improved",
+                ..row()
+            },
+            CandidateColumns {
+                shortfall: Some("speed"),
+                ..row()
+            },
+            CandidateColumns {
+                standing: Some(0.0),
+                ..row()
+            },
+            CandidateColumns {
+                infeasible_placement: Some("new"),
+                ..row()
+            },
+            // A byte moved from one field to the next.
+            CandidateColumns {
+                genome: r#"{"a":1}{"#,
+                outcome: r#""valid":{}}"#,
+                ..row()
+            },
+        ];
+        for (i, c) in changed.iter().enumerate() {
+            assert_ne!(c.checksum(), base, "change {i} went unseen");
+        }
+    }
+}
