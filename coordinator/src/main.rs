@@ -119,6 +119,10 @@ enum Command {
         /// Seconds between copies to --backup.
         #[arg(long, default_value_t = 600.0, requires = "backup")]
         backup_every: f64,
+        /// Seconds a new connection has to open HTTP/2 before it is closed (connections
+        /// that never speak would otherwise hold a file descriptor each, for ever).
+        #[arg(long, default_value_t = 10.0)]
+        handshake_seconds: f64,
     },
     /// Print the progress of every run of a running coordinator.
     Status {
@@ -299,6 +303,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             stop_leasing_after,
             backup,
             backup_every,
+            handshake_seconds,
         } => {
             init_logs()?;
             let secret = Secret::load(token_file.as_deref())?;
@@ -331,6 +336,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     }
                     None => None,
                 },
+                handshake: seconds("handshake-seconds", handshake_seconds)?,
             };
             let ended = runtime()?.block_on(async {
                 let (db, experiment) = open_or_create(experiment.as_deref(), &db, false).await?;

@@ -354,3 +354,73 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
     assert_eq!(counted, 1, "the workers table counts one result in all");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// 200 connections that never speak, against a coordinator limited to 64 file
+/// descriptors: each is closed at its handshake deadline, and health answers meanwhile
+/// (before the deadline they held a descriptor each for ever and starved the process).
+#[test]
+fn connections_that_never_speak_are_closed_and_starve_nothing() {
+    use std::io::Read;
+    let dir = temp_dir("silent-connections");
+    let secret = dir.join("secret");
+    std::fs::write(&secret, SECRET).unwrap();
+    let db = dir.join("silent.db");
+    let mut cmd = Command::new("sh");
+    cmd.arg("-c")
+        .arg("ulimit -n 64 && exec \"$0\" \"$@\"")
+        .arg(binary("strider-coordinator"))
+        .args(["serve", "--db", db.to_str().unwrap(), "--experiment", FIXTURE])
+        .args(["--listen", "127.0.0.1:0", "--handshake-seconds", "1"])
+        .args(["--token-file", secret.to_str().unwrap()]);
+    let coordinator = Process::spawn("coordinator", cmd);
+    let line = coordinator.wait_for_line(
+        "serving",
+        |l| l.contains("serving experiment"),
+        Duration::from_secs(60),
+    );
+    let url = line.rsplit(" on ").next().unwrap().trim().to_string();
+    let addr = url.trim_start_matches("http://").to_string();
+
+    // Three times the descriptors the process has; the kernel completes each TCP
+    // handshake, the coordinator accepts them as descriptors free up.
+    let silent: Vec<std::net::TcpStream> = (0..200)
+        .map(|_| std::net::TcpStream::connect(&addr).unwrap())
+        .collect();
+
+    tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let check = async {
+            let channel = Channel::from_shared(url.clone())
+                .unwrap()
+                .connect()
+                .await
+                .unwrap();
+            tonic_health::pb::health_client::HealthClient::new(channel)
+                .check(tonic_health::pb::HealthCheckRequest::default())
+                .await
+                .unwrap()
+                .into_inner()
+                .status
+        };
+        let status = tokio::time::timeout(Duration::from_secs(60), check)
+            .await
+            .expect("health answered while silent connections were open");
+        assert_eq!(status, 1, "SERVING");
+    });
+
+    // Each silent connection is closed by the coordinator (what it wrote first, its
+    // HTTP/2 settings, then the end), not left open.
+    for (i, mut s) in silent.into_iter().enumerate() {
+        s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+        let mut buf = [0u8; 256];
+        loop {
+            match s.read(&mut buf) {
+                Ok(0) => break,
+                Ok(_) => continue,
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break,
+                Err(e) => panic!("silent connection {i} still open: {e}"),
+            }
+        }
+    }
+    drop(coordinator);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -4,6 +4,7 @@
 
 pub mod auth;
 pub mod client_api;
+pub mod incoming;
 pub mod local;
 pub mod metrics;
 pub mod pace;

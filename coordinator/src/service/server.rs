@@ -49,6 +49,8 @@ pub struct ServeOptions {
     pub stop_leasing_after: Option<Duration>,
     /// Copy the database here this often, and once more on the way out.
     pub backup: Option<Backup>,
+    /// A connection that has not opened HTTP/2 by then is closed ([`super::incoming`]).
+    pub handshake: Duration,
 }
 
 /// A periodic safe copy of the database (see [`Db::backup_to`]).
@@ -71,6 +73,7 @@ impl Default for ServeOptions {
             metrics: None,
             stop_leasing_after: None,
             backup: None,
+            handshake: Duration::from_secs(10),
         }
     }
 }
@@ -211,8 +214,9 @@ pub async fn serve(
     let mut finished = shared.finished.subscribe();
     let keep_serving = opts.keep_serving;
     let (server_stop_tx, server_stop_rx) = oneshot::channel::<()>();
+    // (No-delay is set per connection by `Incoming`: the builder's applies only to the
+    // listener tonic binds itself.)
     let server = tonic::transport::Server::builder()
-        .tcp_nodelay(true)
         .http2_keepalive_interval(Some(Duration::from_secs(10)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
         .add_service(health_service)
@@ -233,7 +237,7 @@ pub async fn serve(
             interceptor,
         ))
         .serve_with_incoming_shutdown(
-            tokio_stream::wrappers::TcpListenerStream::new(listener),
+            super::incoming::Incoming::new(listener, opts.handshake),
             async {
                 let _ = server_stop_rx.await;
             },

@@ -1,0 +1,210 @@
+//! Accepting connections for the gRPC server: a failed accept (out of file descriptors)
+//! backs off instead of retrying at once, and a connection must send HTTP/2's opening
+//! bytes within a deadline or be closed.
+//!
+//! Without the deadline, 500 connections that never spoke held 500 descriptors forever
+//! and starved a process limited to 64 (health and status hung until they went away):
+//! they never reach HTTP/2, so neither the secret nor keepalive pings ever touch them.
+//! Past the opening bytes, the server's HTTP/2 keepalive (a ping every 10 s, 20 s to
+//! answer) closes peers that stop answering.
+
+use std::future::Future;
+use std::io;
+use std::pin::Pin;
+use std::task::{Context, Poll};
+use std::time::Duration;
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::time::{Instant, Sleep};
+use tonic::transport::server::{Connected, TcpConnectInfo};
+
+/// The HTTP/2 client connection preface (RFC 9113, section 3.4): the bytes a client must
+/// send before anything else.
+const PREFACE_LEN: usize = 24;
+
+/// The first wait after a failed accept, doubled on each failure in a row up to
+/// [`MAX_BACKOFF`] (as tokio-rs/mini-redis's accept loop does).
+const FIRST_BACKOFF: Duration = Duration::from_millis(10);
+const MAX_BACKOFF: Duration = Duration::from_secs(1);
+
+/// The connections a listener accepts, as a stream for tonic's `serve_with_incoming`.
+pub struct Incoming {
+    listener: TcpListener,
+    handshake: Duration,
+    backoff: Duration,
+    waiting: Option<Pin<Box<Sleep>>>,
+}
+
+impl Incoming {
+    /// Accepts on `listener`; each connection must send the HTTP/2 preface within
+    /// `handshake`.
+    pub fn new(listener: TcpListener, handshake: Duration) -> Self {
+        Incoming {
+            listener,
+            handshake,
+            backoff: FIRST_BACKOFF,
+            waiting: None,
+        }
+    }
+}
+
+impl tokio_stream::Stream for Incoming {
+    type Item = io::Result<Guarded>;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+        loop {
+            if let Some(sleep) = self.waiting.as_mut() {
+                std::task::ready!(sleep.as_mut().poll(cx));
+                self.waiting = None;
+            }
+            match self.listener.poll_accept(cx) {
+                Poll::Pending => return Poll::Pending,
+                Poll::Ready(Ok((stream, _))) => {
+                    self.backoff = FIRST_BACKOFF;
+                    // Results are small messages each way: no waiting to fill a segment.
+                    let _ = stream.set_nodelay(true);
+                    let deadline = Instant::now() + self.handshake;
+                    return Poll::Ready(Some(Ok(Guarded::new(stream, deadline))));
+                }
+                Poll::Ready(Err(e)) => {
+                    if self.backoff == FIRST_BACKOFF {
+                        tracing::warn!("accepting a connection failed ({e}); retrying with backoff");
+                    }
+                    let wait = self.backoff;
+                    self.backoff = (self.backoff * 2).min(MAX_BACKOFF);
+                    self.waiting = Some(Box::pin(tokio::time::sleep(wait)));
+                }
+            }
+        }
+    }
+}
+
+/// An accepted connection, closed (reads fail with `TimedOut`) unless its first
+/// [`PREFACE_LEN`] bytes arrive before its deadline.
+pub struct Guarded {
+    inner: TcpStream,
+    /// Bytes of the preface still to come (0: the deadline no longer applies).
+    preface_left: usize,
+    deadline: Pin<Box<Sleep>>,
+}
+
+impl Guarded {
+    fn new(inner: TcpStream, deadline: Instant) -> Self {
+        Guarded {
+            inner,
+            preface_left: PREFACE_LEN,
+            deadline: Box::pin(tokio::time::sleep_until(deadline)),
+        }
+    }
+}
+
+impl AsyncRead for Guarded {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        let before = buf.filled().len();
+        let polled = Pin::new(&mut self.inner).poll_read(cx, buf);
+        if self.preface_left == 0 {
+            return polled;
+        }
+        match polled {
+            Poll::Ready(Ok(())) => {
+                let got = buf.filled().len() - before;
+                self.preface_left = self.preface_left.saturating_sub(got);
+                Poll::Ready(Ok(()))
+            }
+            Poll::Pending if self.deadline.as_mut().poll(cx).is_ready() => {
+                Poll::Ready(Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    "the client did not open HTTP/2 in time",
+                )))
+            }
+            other => other,
+        }
+    }
+}
+
+impl AsyncWrite for Guarded {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.inner).poll_write(cx, buf)
+    }
+
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_flush(cx)
+    }
+
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_shutdown(cx)
+    }
+
+    fn poll_write_vectored(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        bufs: &[io::IoSlice<'_>],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.inner).poll_write_vectored(cx, bufs)
+    }
+
+    fn is_write_vectored(&self) -> bool {
+        self.inner.is_write_vectored()
+    }
+}
+
+impl Connected for Guarded {
+    type ConnectInfo = TcpConnectInfo;
+
+    fn connect_info(&self) -> TcpConnectInfo {
+        self.inner.connect_info()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    use tokio_stream::StreamExt;
+
+    async fn pair(handshake: Duration) -> (TcpStream, Guarded) {
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let mut incoming = Incoming::new(listener, handshake);
+        let client = TcpStream::connect(addr).await.unwrap();
+        let server = incoming.next().await.unwrap().unwrap();
+        (client, server)
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_connection_that_sends_nothing_is_closed_at_its_deadline() {
+        let (_client, mut server) = pair(Duration::from_secs(10)).await;
+        let mut buf = [0u8; 64];
+        let e = server.read(&mut buf).await.unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_slow_preface_is_closed_and_a_whole_one_lifts_the_deadline() {
+        // 10 of the 24 bytes, then nothing: closed.
+        let (mut client, mut server) = pair(Duration::from_secs(10)).await;
+        client.write_all(&[b'P'; 10]).await.unwrap();
+        let mut buf = [0u8; 64];
+        assert_eq!(server.read(&mut buf).await.unwrap(), 10);
+        let e = server.read(&mut buf).await.unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut);
+
+        // The whole preface: the connection may then stay quiet past the deadline.
+        let (mut client, mut server) = pair(Duration::from_secs(10)).await;
+        client.write_all(&[b'P'; PREFACE_LEN]).await.unwrap();
+        let mut got = 0;
+        while got < PREFACE_LEN {
+            got += server.read(&mut buf).await.unwrap();
+        }
+        let quiet = tokio::time::timeout(Duration::from_secs(60), server.read(&mut buf)).await;
+        assert!(quiet.is_err(), "a connection past its preface was closed: {quiet:?}");
+    }
+}
