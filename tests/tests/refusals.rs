@@ -369,7 +369,13 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
     cmd.arg("-c")
         .arg("ulimit -n 64 && exec \"$0\" \"$@\"")
         .arg(binary("strider-coordinator"))
-        .args(["serve", "--db", db.to_str().unwrap(), "--experiment", FIXTURE])
+        .args([
+            "serve",
+            "--db",
+            db.to_str().unwrap(),
+            "--experiment",
+            FIXTURE,
+        ])
         .args(["--listen", "127.0.0.1:0", "--handshake-seconds", "1"])
         .args(["--token-file", secret.to_str().unwrap()]);
     let coordinator = Process::spawn("coordinator", cmd);

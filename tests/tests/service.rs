@@ -167,6 +167,15 @@ fn killed_stopped_and_terminated_workers_change_nothing() {
         .trim(),
         "the worker closed its stream"
     );
+    // The killed worker's connection was lost, and its record says so.
+    let killed_left = strider_tests::sqlite(
+        &db,
+        "SELECT left_because FROM workers WHERE name = 'killed'",
+    );
+    assert!(
+        killed_left.starts_with("the connection was"),
+        "{killed_left}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

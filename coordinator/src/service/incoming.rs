@@ -68,7 +68,9 @@ impl tokio_stream::Stream for Incoming {
                 }
                 Poll::Ready(Err(e)) => {
                     if self.backoff == FIRST_BACKOFF {
-                        tracing::warn!("accepting a connection failed ({e}); retrying with backoff");
+                        tracing::warn!(
+                            "accepting a connection failed ({e}); retrying with backoff"
+                        );
                     }
                     let wait = self.backoff;
                     self.backoff = (self.backoff * 2).min(MAX_BACKOFF);
@@ -205,6 +207,9 @@ mod tests {
             got += server.read(&mut buf).await.unwrap();
         }
         let quiet = tokio::time::timeout(Duration::from_secs(60), server.read(&mut buf)).await;
-        assert!(quiet.is_err(), "a connection past its preface was closed: {quiet:?}");
+        assert!(
+            quiet.is_err(),
+            "a connection past its preface was closed: {quiet:?}"
+        );
     }
 }

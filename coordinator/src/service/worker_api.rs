@@ -22,6 +22,10 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
 
+/// Why a session ended when its connection went without the worker closing its stream.
+const CONNECTION_LOST: &str =
+    "the connection was lost (no answer to keepalive pings, or the worker's process or network went away)";
+
 /// Most candidates one worker may hold.
 pub const MAX_SLOTS: u32 = 4096;
 
@@ -196,11 +200,20 @@ impl Session {
                         let _ = self.tx.send(Err(Status::resource_exhausted(why.clone()))).await;
                         break format!("refused: {why}");
                     }
+                    // HTTP/2 reports a reset connection as a protocol error reading the
+                    // body: a worker killed, or its network cut, not a broken protocol.
+                    Err(e) if e.code() == tonic::Code::Unknown => break format!(
+                        "the connection was reset (the worker's process killed, or its network cut): {}",
+                        e.message()
+                    ),
                     Err(e) => break format!("stream error: {}", e.message()),
                 },
                 _ = &mut work => {}
                 _ = finished.changed() => {}
-                _ = self.tx.closed() => break "the worker went away".into(),
+                // The response stream is gone with the connection: the server's keepalive
+                // gave up (no answer to pings for 20 s: a stopped or hung process, a
+                // cut network) or the connection was reset (the process killed).
+                _ = self.tx.closed() => break CONNECTION_LOST.into(),
             }
         };
         let why = reason.clone();
@@ -242,7 +255,7 @@ impl Session {
                 run_seed: a.run_seed.0,
             });
             if self.tx.send(message(m)).await.is_err() {
-                return Err("the worker went away".into());
+                return Err(CONNECTION_LOST.into());
             }
         }
         Ok(())
