@@ -10,6 +10,7 @@ use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use strider_common::rng::CandidateSeed;
@@ -125,6 +126,11 @@ pub enum WorkerError {
     },
 }
 
+/// Results this process has handed to its streams, over all its sessions: said when it
+/// ends, so that results sent again after a coordinator lost some can be counted
+/// (BENCHMARKS.md, the kill-loss window).
+static RESULTS_SENT: AtomicU64 = AtomicU64::new(0);
+
 /// How a session ended.
 enum End {
     /// The experiment is finished.
@@ -186,10 +192,19 @@ pub async fn work(
         };
         match end {
             End::Finished => {
-                tracing::info!("the experiment is finished");
+                tracing::info!(
+                    results_sent = RESULTS_SENT.load(Ordering::Relaxed),
+                    "the experiment is finished"
+                );
                 return Ok(());
             }
-            End::ShutDown => return Ok(()),
+            End::ShutDown => {
+                tracing::info!(
+                    results_sent = RESULTS_SENT.load(Ordering::Relaxed),
+                    "stopped"
+                );
+                return Ok(());
+            }
             End::Lost(why, welcomed) => {
                 if welcomed {
                     backoff = first_backoff;
@@ -339,6 +354,7 @@ async fn session(
                         if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
                             return lost("the stream closed".into());
                         }
+                        RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
                     } else {
                         queue.push_back(j);
                     }
@@ -388,6 +404,7 @@ async fn session(
                 if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
                     return lost("the stream closed".into());
                 }
+                RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
             },
             _ = heartbeat.tick() => {
                 // The running trials are said started again: a lease that expired and came
@@ -456,7 +473,9 @@ async fn drain(
                         continue;
                     };
                     let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
-                    let _ = out.send(msg(worker_message::Kind::Result(r))).await;
+                    if out.send(msg(worker_message::Kind::Result(r))).await.is_ok() {
+                        RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
+                    }
                 }
                 Err(_) => break,
             },

@@ -39,9 +39,31 @@ pub struct CandidateColumns<'a> {
     pub infeasible_placement: Option<&'a str>,
 }
 
-/// The columns a checksum check selects, in [`CandidateColumns::from_row`]'s order.
-pub const SELECTED: &str = "run_id, number, generation, genome, outcome, kind, fitness, cell, \
-     placement, shortfall, standing, infeasible_placement, checksum";
+/// The columns a checksum check selects ([`CandidateColumns::from_row`] reads them by name).
+pub const SELECTED: [&str; 13] = [
+    "run_id",
+    "number",
+    "generation",
+    "genome",
+    "outcome",
+    "kind",
+    "fitness",
+    "cell",
+    "placement",
+    "shortfall",
+    "standing",
+    "infeasible_placement",
+    "checksum",
+];
+
+/// [`SELECTED`] for a query naming the candidates table `alias`.
+pub fn selected(alias: &str) -> String {
+    SELECTED
+        .iter()
+        .map(|c| format!("{alias}.{c}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
 impl<'a> CandidateColumns<'a> {
     /// The columns of `row` (selected as [`SELECTED`]), and its stored checksum (`None`
