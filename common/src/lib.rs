@@ -33,7 +33,7 @@ pub use pose::StartPose;
 pub use variation::{MutationRates, Scheme};
 
 /// The Strider build: trials are bit-identical only within one build (see
-/// ../shared/notes/rapier.md), so the database records it and the coordinator refuses
+/// docs/rapier.md), so the database records it and the coordinator refuses
 /// workers of another.
 pub fn build_id() -> String {
     format!(

@@ -27,11 +27,39 @@ const PREFACE_LEN: usize = 24;
 const FIRST_BACKOFF: Duration = Duration::from_millis(10);
 const MAX_BACKOFF: Duration = Duration::from_secs(1);
 
+/// How long to wait after a failed accept: 10 ms, doubled on each failure in a row up to
+/// 1 s, back to 10 ms after a success.
+#[derive(Debug)]
+pub struct AcceptBackoff(Duration);
+
+impl Default for AcceptBackoff {
+    fn default() -> Self {
+        AcceptBackoff(FIRST_BACKOFF)
+    }
+}
+
+impl AcceptBackoff {
+    /// An accept failed with `e`: the wait before the next (the first of a run is logged).
+    pub fn failed(&mut self, e: &io::Error) -> Duration {
+        if self.0 == FIRST_BACKOFF {
+            tracing::warn!("accepting a connection failed ({e}); retrying with backoff");
+        }
+        let wait = self.0;
+        self.0 = (self.0 * 2).min(MAX_BACKOFF);
+        wait
+    }
+
+    /// An accept succeeded.
+    pub fn succeeded(&mut self) {
+        self.0 = FIRST_BACKOFF;
+    }
+}
+
 /// The connections a listener accepts, as a stream for tonic's `serve_with_incoming`.
 pub struct Incoming {
     listener: TcpListener,
     handshake: Duration,
-    backoff: Duration,
+    backoff: AcceptBackoff,
     waiting: Option<Pin<Box<Sleep>>>,
 }
 
@@ -42,7 +70,7 @@ impl Incoming {
         Incoming {
             listener,
             handshake,
-            backoff: FIRST_BACKOFF,
+            backoff: AcceptBackoff::default(),
             waiting: None,
         }
     }
@@ -60,20 +88,14 @@ impl tokio_stream::Stream for Incoming {
             match self.listener.poll_accept(cx) {
                 Poll::Pending => return Poll::Pending,
                 Poll::Ready(Ok((stream, _))) => {
-                    self.backoff = FIRST_BACKOFF;
+                    self.backoff.succeeded();
                     // Results are small messages each way: no waiting to fill a segment.
                     let _ = stream.set_nodelay(true);
                     let deadline = Instant::now() + self.handshake;
                     return Poll::Ready(Some(Ok(Guarded::new(stream, deadline))));
                 }
                 Poll::Ready(Err(e)) => {
-                    if self.backoff == FIRST_BACKOFF {
-                        tracing::warn!(
-                            "accepting a connection failed ({e}); retrying with backoff"
-                        );
-                    }
-                    let wait = self.backoff;
-                    self.backoff = (self.backoff * 2).min(MAX_BACKOFF);
+                    let wait = self.backoff.failed(&e);
                     self.waiting = Some(Box::pin(tokio::time::sleep(wait)));
                 }
             }
@@ -171,6 +193,16 @@ mod tests {
     use super::*;
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
     use tokio_stream::StreamExt;
+
+    #[test]
+    fn failed_accepts_back_off_to_a_second_and_a_success_starts_over() {
+        let mut b = AcceptBackoff::default();
+        let e = io::Error::other("too many open files");
+        let waits: Vec<u128> = (0..9).map(|_| b.failed(&e).as_millis()).collect();
+        assert_eq!(waits, [10, 20, 40, 80, 160, 320, 640, 1000, 1000]);
+        b.succeeded();
+        assert_eq!(b.failed(&e), FIRST_BACKOFF);
+    }
 
     async fn pair(handshake: Duration) -> (TcpStream, Guarded) {
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();

@@ -139,9 +139,18 @@ pub fn render(p: &v1::Progress, results_total: u64) -> String {
 
 /// Answers scrapes on `listener` until the task is dropped.
 pub async fn serve_metrics(listener: TcpListener, shared: Arc<Shared>) {
+    // A failed accept (out of file descriptors) is retried after a wait, not at once.
+    let mut backoff = super::incoming::AcceptBackoff::default();
     loop {
-        let Ok((stream, _)) = listener.accept().await else {
-            continue;
+        let stream = match listener.accept().await {
+            Ok((stream, _)) => {
+                backoff.succeeded();
+                stream
+            }
+            Err(e) => {
+                tokio::time::sleep(backoff.failed(&e)).await;
+                continue;
+            }
         };
         let shared = shared.clone();
         tokio::spawn(async move {

@@ -2,7 +2,7 @@
 //!
 //! One multibody: the body is its free root; every link hangs on a revolute joint whose
 //! rapier angle is exactly the model's joint angle q (see `docs/model.md`). Joints are
-//! implicit springs with joint damping (the approach `../shared/notes/rapier.md` measured
+//! implicit springs with joint damping (the approach `docs/rapier.md` records
 //! stable); the trial moves each spring's rest point to drive and clamp the joint.
 
 use ::nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
