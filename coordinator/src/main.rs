@@ -149,9 +149,12 @@ enum Command {
         format: Format,
         /// One elite instead of all: RUN:CELL, or `best` (of --run, or of the experiment).
         /// Alone, its genome file (JSON, as `strider-worker eval` and `inspect` read it) is
-        /// written to standard output; with --urdf, its design as URDF.
+        /// written to standard output (or to --genome FILE); with --urdf, its design as URDF.
         #[arg(long)]
         elite: Option<EliteChoice>,
+        /// Write the chosen elite's genome file here instead of to standard output.
+        #[arg(long, requires = "elite", conflicts_with = "urdf")]
+        genome: Option<PathBuf>,
         /// Write the chosen elite's design here as URDF (links with masses and inertias,
         /// revolute joints with axes and the motors' limits).
         #[arg(long, requires = "elite")]
@@ -363,10 +366,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             run,
             format,
             elite,
+            genome,
             urdf,
         } => match (elite, urdf) {
             (Some(elite), Some(urdf)) => runtime()?.block_on(export_urdf(&db, run, elite, &urdf)),
-            (Some(elite), None) => runtime()?.block_on(export_genome(&db, run, elite)),
+            (Some(elite), None) => {
+                runtime()?.block_on(export_genome(&db, run, elite, genome.as_deref()))
+            }
             _ => runtime()?.block_on(export(&db, run, format)),
         },
         Command::Analyse { db } => runtime()?.block_on(analyse(&db)),
@@ -691,12 +697,21 @@ async fn selected_runs(db: &Db, only: Option<i64>) -> anyhow::Result<Vec<RunReco
     Ok(runs)
 }
 
-/// `export --elite E --urdf FILE`: one elite's body plan as URDF.
-async fn export_genome(path: &Path, only: Option<i64>, choice: EliteChoice) -> anyhow::Result<()> {
+/// `export --elite E [--genome FILE]`: one elite's genome file, to standard output or FILE.
+async fn export_genome(
+    path: &Path,
+    only: Option<i64>,
+    choice: EliteChoice,
+    to: Option<&Path>,
+) -> anyhow::Result<()> {
     let (db, _) = open_existing(path).await?;
     let runs = selected_runs(&db, only).await?;
     let (run, cell, fitness, genome) = export::find(&runs, choice).map_err(anyhow::Error::msg)?;
-    outln!("{}", genome.to_json_pretty());
+    match to {
+        Some(file) => std::fs::write(file, genome.to_json_pretty() + "\n")
+            .with_context(|| format!("writing {}", file.display()))?,
+        None => outln!("{}", genome.to_json_pretty()),
+    }
     eprintln!("run {run}, cell {}: fitness {fitness:.4}", cell.0);
     Ok(())
 }

@@ -180,6 +180,62 @@ fn status_and_a_generated_python_client_read_progress_and_elites() {
     assert_eq!(py["elite"]["morphology"], 43);
     assert_eq!(py["elite"]["controller"], 7);
     assert_eq!(py["elite"]["kind"], "valid");
+
+    // Server reflection as grpcio-reflection's client speaks it: the services listed
+    // (health among them), and the file that defines the worker service.
+    reflection_lists_the_services(&url);
     drop(coordinator);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A Python with grpcio-reflection (`.ci/run` installs it with pip), if any.
+fn python_with_reflection() -> Option<&'static str> {
+    ["python3", PYTHON].into_iter().find(|py| {
+        Command::new(py)
+            .args(["-c", "import grpc_reflection.v1alpha.reflection_pb2_grpc"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+fn reflection_lists_the_services(url: &str) {
+    let Some(python) = python_with_reflection() else {
+        strider_tests::skip_without("grpcio-reflection (python3 -m pip install grpcio-reflection)");
+        return;
+    };
+    let out = Command::new(python)
+        .arg(workspace_root().join("tests/clients/python_reflection.py"))
+        .arg(url.trim_start_matches("http://"))
+        .arg(SECRET)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let seen: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let services: Vec<&str> = seen["services"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap())
+        .collect();
+    for wanted in [
+        "grpc.health.v1.Health",
+        "strider.v1.ClientService",
+        "strider.v1.WorkerService",
+    ] {
+        assert!(services.contains(&wanted), "{wanted} not in {seen}");
+    }
+    assert_eq!(seen["file"][0], "strider/v1/strider.proto", "{seen}");
+    let in_file = seen["file_services"].to_string();
+    assert!(
+        in_file.contains("WorkerService") && in_file.contains("ClientService"),
+        "{seen}"
+    );
+    assert!(
+        seen["file_messages"].to_string().contains("\"Progress\""),
+        "{seen}"
+    );
 }

@@ -225,6 +225,21 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
     let genome_file = dir.join("best.json");
     std::fs::write(&genome_file, &out.stdout).unwrap();
     strider_common::Genome::load(&genome_file).expect("the exported genome loads");
+    // --genome FILE writes the very same file.
+    let to_file = dir.join("best-to-file.json");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db.to_str().unwrap(),
+            "--elite",
+            "best",
+            "--genome",
+            to_file.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(std::fs::read(&to_file).unwrap(), out.stdout);
     let again = dir.join("again.urdf");
     run_ok(
         "strider-worker",
