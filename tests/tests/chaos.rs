@@ -59,7 +59,15 @@ fn serve(dir: &Path, db: &Path, port: u16) -> Process {
         "--token-file",
         strider_tests::secret_file(dir, SECRET).to_str().unwrap(),
     ])
-    .args(["--lease-seconds", "1", "--progress-every", "0.5"]);
+    .args(["--lease-seconds", "1", "--progress-every", "0.5"])
+    // Events come 20 to 220 ms apart, shorter than a trial here, so the schedule can kill
+    // or stall the worker simulating one candidate, then the next that takes it, and so
+    // on: by the attempt rule (distinct workers dying while simulating it) that candidate
+    // rightly fails after --max-attempts (seen in CI: SIGKILL, SIGKILL, SIGSTOP in a row).
+    // Above the number of worker events no candidate can; the rule itself is tested in
+    // the scheduler's and the service's tests. Here the point is that faults change
+    // nothing else.
+    .args(["--max-attempts", &(WORKER_EVENTS + 1).to_string()]);
     let p = Process::spawn("coordinator", cmd);
     p.wait_for_line(
         "saying it serves",
