@@ -119,8 +119,9 @@ enum Command {
         /// Seconds between copies to --backup.
         #[arg(long, default_value_t = 600.0, requires = "backup")]
         backup_every: f64,
-        /// Seconds a new connection has to open HTTP/2 before it is closed (connections
-        /// that never speak would otherwise hold a file descriptor each, for ever).
+        /// Seconds a new connection has to make a call with the secret before it is closed
+        /// (connections that never do would otherwise hold a file descriptor each, for
+        /// ever; a health probe's lasts this long).
         #[arg(long, default_value_t = 10.0)]
         handshake_seconds: f64,
     },

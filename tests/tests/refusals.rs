@@ -413,9 +413,18 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
         assert_eq!(status, 1, "SERVING");
     });
 
+    // One that opens HTTP/2 (the client preface and an empty SETTINGS frame) and then
+    // idles, answering nothing, is closed too.
+    let mut idle = std::net::TcpStream::connect(&addr).unwrap();
+    std::io::Write::write_all(
+        &mut idle,
+        b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n\x00\x00\x00\x04\x00\x00\x00\x00\x00",
+    )
+    .unwrap();
+
     // Each silent connection is closed by the coordinator (what it wrote first, its
     // HTTP/2 settings, then the end), not left open.
-    for (i, mut s) in silent.into_iter().enumerate() {
+    for (i, mut s) in silent.into_iter().chain([idle]).enumerate() {
         s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
         let mut buf = [0u8; 256];
         loop {
@@ -427,6 +436,22 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
             }
         }
     }
-    drop(coordinator);
+
+    // A worker that shows the secret keeps its connection past the deadline: one session
+    // for the whole experiment (seconds, where the deadline is one).
+    let mut worker = Command::new(binary("strider-worker"));
+    worker
+        .args(["--connect", &url, "--threads", "2"])
+        .args(["--token-file", secret.to_str().unwrap()]);
+    let worker = Process::spawn("worker", worker);
+    let mut coordinator = coordinator;
+    assert!(
+        coordinator.wait_exit(Duration::from_secs(300)).success(),
+        "{}",
+        coordinator.log()
+    );
+    let log = coordinator.log();
+    assert_eq!(log.matches("worker connected").count(), 1, "{log}");
+    drop(worker);
     std::fs::remove_dir_all(&dir).unwrap();
 }

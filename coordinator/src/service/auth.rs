@@ -95,7 +95,13 @@ impl Secret {
     pub fn interceptor(&self) -> impl Fn(Request<()>) -> Result<Request<()>, Status> + Clone {
         let secret = self.clone();
         move |req: Request<()>| match req.metadata().get("authorization") {
-            Some(v) if secret.matches(v.as_bytes()) => Ok(req),
+            Some(v) if secret.matches(v.as_bytes()) => {
+                // The connection has shown the secret: its deadline no longer applies.
+                if let Some(c) = req.extensions().get::<super::incoming::ConnectionInfo>() {
+                    c.mark_authenticated();
+                }
+                Ok(req)
+            }
             Some(_) => Err(Status::unauthenticated("wrong secret")),
             None => Err(Status::unauthenticated(
                 "missing secret: send metadata `authorization: Bearer <secret>`",

@@ -1,26 +1,27 @@
 //! Accepting connections for the gRPC server: a failed accept (out of file descriptors)
-//! backs off instead of retrying at once, and a connection must send HTTP/2's opening
-//! bytes within a deadline or be closed.
+//! backs off instead of retrying at once, and a connection must make an authenticated call
+//! (a worker's Hello, a client's request with the secret) within a deadline or be closed.
 //!
 //! Without the deadline, 500 connections that never spoke held 500 descriptors forever
 //! and starved a process limited to 64 (health and status hung until they went away):
-//! they never reach HTTP/2, so neither the secret nor keepalive pings ever touch them.
-//! Past the opening bytes, the server's HTTP/2 keepalive (a ping every 10 s, 20 s to
-//! answer) closes peers that stop answering.
+//! they never reach HTTP/2, so neither the secret nor keepalive pings ever touch them; and
+//! one that opens HTTP/2 and then idles answers the keepalive pings for ever. The
+//! interceptor that checks the secret marks the connection ([`ConnectionInfo`]); from then
+//! on, the server's HTTP/2 keepalive (a ping every 10 s, 20 s to answer) closes peers that
+//! stop answering. Health needs no secret, so a prober's connection lasts the deadline: it
+//! asks on a new one next time.
 
 use std::future::Future;
 use std::io;
 use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::time::{Instant, Sleep};
 use tonic::transport::server::{Connected, TcpConnectInfo};
-
-/// The HTTP/2 client connection preface (RFC 9113, section 3.4): the bytes a client must
-/// send before anything else.
-const PREFACE_LEN: usize = 24;
 
 /// The first wait after a failed accept, doubled on each failure in a row up to
 /// [`MAX_BACKOFF`] (as tokio-rs/mini-redis's accept loop does).
@@ -64,7 +65,7 @@ pub struct Incoming {
 }
 
 impl Incoming {
-    /// Accepts on `listener`; each connection must send the HTTP/2 preface within
+    /// Accepts on `listener`; each connection must make an authenticated call within
     /// `handshake`.
     pub fn new(listener: TcpListener, handshake: Duration) -> Self {
         Incoming {
@@ -103,12 +104,27 @@ impl tokio_stream::Stream for Incoming {
     }
 }
 
-/// An accepted connection, closed (reads fail with `TimedOut`) unless its first
-/// [`PREFACE_LEN`] bytes arrive before its deadline.
+/// What a call knows of its connection: the peer's address, and the mark that lifts the
+/// connection's deadline.
+#[derive(Clone, Debug)]
+pub struct ConnectionInfo {
+    /// The TCP peer.
+    pub tcp: TcpConnectInfo,
+    authenticated: Arc<AtomicBool>,
+}
+
+impl ConnectionInfo {
+    /// The connection has made an authenticated call: it may stay.
+    pub fn mark_authenticated(&self) {
+        self.authenticated.store(true, Ordering::Relaxed);
+    }
+}
+
+/// An accepted connection, closed (reads fail with `TimedOut`) at its deadline unless a
+/// call on it was authenticated first.
 pub struct Guarded {
     inner: TcpStream,
-    /// Bytes of the preface still to come (0: the deadline no longer applies).
-    preface_left: usize,
+    authenticated: Arc<AtomicBool>,
     deadline: Pin<Box<Sleep>>,
 }
 
@@ -116,7 +132,7 @@ impl Guarded {
     fn new(inner: TcpStream, deadline: Instant) -> Self {
         Guarded {
             inner,
-            preface_left: PREFACE_LEN,
+            authenticated: Arc::new(AtomicBool::new(false)),
             deadline: Box::pin(tokio::time::sleep_until(deadline)),
         }
     }
@@ -128,23 +144,14 @@ impl AsyncRead for Guarded {
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
-        let before = buf.filled().len();
         let polled = Pin::new(&mut self.inner).poll_read(cx, buf);
-        if self.preface_left == 0 {
+        if self.authenticated.load(Ordering::Relaxed) {
             return polled;
         }
         match polled {
-            Poll::Ready(Ok(())) => {
-                let got = buf.filled().len() - before;
-                self.preface_left = self.preface_left.saturating_sub(got);
-                Poll::Ready(Ok(()))
-            }
-            Poll::Pending if self.deadline.as_mut().poll(cx).is_ready() => {
-                Poll::Ready(Err(io::Error::new(
-                    io::ErrorKind::TimedOut,
-                    "the client did not open HTTP/2 in time",
-                )))
-            }
+            Poll::Pending if self.deadline.as_mut().poll(cx).is_ready() => Poll::Ready(Err(
+                io::Error::new(io::ErrorKind::TimedOut, "no authenticated call in time"),
+            )),
             other => other,
         }
     }
@@ -181,10 +188,13 @@ impl AsyncWrite for Guarded {
 }
 
 impl Connected for Guarded {
-    type ConnectInfo = TcpConnectInfo;
+    type ConnectInfo = ConnectionInfo;
 
-    fn connect_info(&self) -> TcpConnectInfo {
-        self.inner.connect_info()
+    fn connect_info(&self) -> ConnectionInfo {
+        ConnectionInfo {
+            tcp: self.inner.connect_info(),
+            authenticated: self.authenticated.clone(),
+        }
     }
 }
 
@@ -222,26 +232,25 @@ mod tests {
     }
 
     #[tokio::test(start_paused = true)]
-    async fn a_slow_preface_is_closed_and_a_whole_one_lifts_the_deadline() {
-        // 10 of the 24 bytes, then nothing: closed.
+    async fn talking_is_not_enough_an_authenticated_call_lifts_the_deadline() {
+        // HTTP/2's preface and more, but no authenticated call: closed.
         let (mut client, mut server) = pair(Duration::from_secs(10)).await;
-        client.write_all(&[b'P'; 10]).await.unwrap();
-        let mut buf = [0u8; 64];
-        assert_eq!(server.read(&mut buf).await.unwrap(), 10);
+        client.write_all(&[b'P'; 100]).await.unwrap();
+        let mut buf = [0u8; 256];
+        let mut got = 0;
+        while got < 100 {
+            got += server.read(&mut buf).await.unwrap();
+        }
         let e = server.read(&mut buf).await.unwrap_err();
         assert_eq!(e.kind(), io::ErrorKind::TimedOut);
 
-        // The whole preface: the connection may then stay quiet past the deadline.
-        let (mut client, mut server) = pair(Duration::from_secs(10)).await;
-        client.write_all(&[b'P'; PREFACE_LEN]).await.unwrap();
-        let mut got = 0;
-        while got < PREFACE_LEN {
-            got += server.read(&mut buf).await.unwrap();
-        }
+        // Marked by the interceptor: it may then stay quiet past the deadline.
+        let (_client, mut server) = pair(Duration::from_secs(10)).await;
+        server.connect_info().mark_authenticated();
         let quiet = tokio::time::timeout(Duration::from_secs(60), server.read(&mut buf)).await;
         assert!(
             quiet.is_err(),
-            "a connection past its preface was closed: {quiet:?}"
+            "an authenticated connection was closed: {quiet:?}"
         );
     }
 }

@@ -49,7 +49,8 @@ pub struct ServeOptions {
     pub stop_leasing_after: Option<Duration>,
     /// Copy the database here this often, and once more on the way out.
     pub backup: Option<Backup>,
-    /// A connection that has not opened HTTP/2 by then is closed ([`super::incoming`]).
+    /// A connection that has made no authenticated call by then is closed
+    /// ([`super::incoming`]).
     pub handshake: Duration,
 }
 
