@@ -221,6 +221,28 @@ fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_worker_told_to_give_up_waits_while_its_coordinator_serves_and_exits_69_once_it_is_gone() {
+    let dir = temp_dir("service-give-up");
+    let db = dir.join("give-up.db");
+    let (coordinator, url) = serve(&dir, &db, 0, "60");
+    let mut cmd = Command::new(binary("strider-worker"));
+    cmd.args(["--connect", &url, "--threads", "1", "--name", "patient"])
+        .args(["--token-file", secret_file(&dir).to_str().unwrap()])
+        .args(["--max-backoff-seconds", "0.2", "--give-up-after", "1"]);
+    let mut w = Process::spawn("patient", cmd);
+    w.wait_for_line("connected", |l| l.contains("connected to"), START);
+    // Served for longer than the limit: the limit counts only time without a coordinator.
+    coordinator.wait_for_line("generation 3", |l| l.contains("generation 3/20"), FINISH);
+    assert!(w.exited().is_none(), "gave up while served:\n{}", w.log());
+    coordinator.signal(libc::SIGKILL);
+    drop(coordinator);
+    let status = w.wait_exit(START);
+    assert_eq!(status.code(), Some(69), "{}", w.log());
+    assert!(w.log().contains("giving up"), "{}", w.log());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `GET path` over plain HTTP; the whole response.
 fn http_get(addr: &str, path: &str) -> String {
     use std::io::{Read, Write};

@@ -108,6 +108,9 @@ pub struct ConnectOptions {
     pub drain: Duration,
     /// Longest wait between connection attempts.
     pub max_backoff: Duration,
+    /// Stop with [`WorkerError::GaveUp`] once no coordinator has welcomed this worker for
+    /// this long (`None`: wait for one for ever, as a worker of a separate job does).
+    pub give_up_after: Option<Duration>,
 }
 
 /// Why the worker stopped for good.
@@ -116,6 +119,9 @@ pub enum WorkerError {
     /// The coordinator refused it in a way retrying cannot fix.
     #[error("the coordinator refused this worker: {0}")]
     Refused(String),
+    /// No coordinator welcomed it within [`ConnectOptions::give_up_after`].
+    #[error("no coordinator has answered for {0:?}: giving up")]
+    GaveUp(Duration),
     /// The coordinator's URL is malformed.
     #[error("coordinator URL {url}: {problem}")]
     BadUrl {
@@ -169,6 +175,8 @@ pub async fn work(
         .map_err(|e| WorkerError::Refused(format!("starting simulation threads: {e}")))?;
     let first_backoff = Duration::from_millis(100);
     let mut backoff = first_backoff;
+    // When a coordinator last had this worker connected (or it started).
+    let mut last_welcome = tokio::time::Instant::now();
     loop {
         if *shutdown.borrow() {
             return Ok(());
@@ -208,6 +216,13 @@ pub async fn work(
             End::Lost(why, welcomed) => {
                 if welcomed {
                     backoff = first_backoff;
+                    last_welcome = tokio::time::Instant::now();
+                }
+                if let Some(limit) = opts.give_up_after {
+                    if last_welcome.elapsed() >= limit {
+                        tracing::error!("not connected to {}: {why}", opts.coordinator);
+                        return Err(WorkerError::GaveUp(limit));
+                    }
                 }
                 tracing::warn!(
                     "not connected to {}: {why}; retrying in {backoff:?}",

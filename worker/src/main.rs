@@ -16,7 +16,7 @@ use strider_common::{BodyPlan, Controller, Experiment, Genome, Outcome, Scheme};
 use strider_proto::process::{report, UsageError};
 use strider_proto::terminal::Bar;
 use strider_worker::batch::default_threads;
-use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
+use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator, WorkerError};
 use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
 use strider_worker::replay::Replay;
 use strider_worker::survey::Survey;
@@ -74,6 +74,11 @@ struct ConnectArgs {
     /// Longest wait, in seconds, between attempts to reach the coordinator.
     #[arg(long, default_value_t = 5.0)]
     max_backoff_seconds: f64,
+    /// Exit with status 69 once no coordinator has had this worker connected for this many
+    /// seconds (default: wait for ever). The Slurm script's one-job role uses it to end a
+    /// job whose coordinator's node is lost.
+    #[arg(long)]
+    give_up_after: Option<f64>,
     /// BENCHMARK ONLY: answer every candidate instantly with a made-up result, to measure
     /// the coordinator. Never use for real runs.
     #[arg(long)]
@@ -177,11 +182,19 @@ enum Command {
     },
 }
 
+/// Exit status of a worker that gave up waiting for a coordinator (`--give-up-after`);
+/// sysexits.h's EX_UNAVAILABLE.
+const EXIT_GAVE_UP: u8 = 69;
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         // `survey | head`: the reader had enough; not an error.
         Err(e) if strider_worker::cli::closed_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) if matches!(e.downcast_ref(), Some(WorkerError::GaveUp(_))) => {
+            report(e.as_ref());
+            ExitCode::from(EXIT_GAVE_UP)
+        }
         Err(e) => ExitCode::from(report(e.as_ref())),
     }
 }
@@ -218,6 +231,15 @@ fn connect(args: ConnectArgs, coordinator: CoordinatorAddress) -> anyhow::Result
         ))
         .into());
     }
+    let give_up_after = match args.give_up_after {
+        None => None,
+        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        Some(s) => {
+            return Err(
+                UsageError(format!("--give-up-after: {s} is not a number of seconds")).into(),
+            )
+        }
+    };
     let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
         .map(|h| h.trim().to_string())
         .unwrap_or_else(|_| "localhost".into());
@@ -238,6 +260,7 @@ fn connect(args: ConnectArgs, coordinator: CoordinatorAddress) -> anyhow::Result
         max_backoff: std::time::Duration::from_secs_f64(
             args.max_backoff_seconds.clamp(0.05, 600.0),
         ),
+        give_up_after,
     };
     // One async thread moves the messages; trials run on the simulation threads.
     let runtime = tokio::runtime::Builder::new_current_thread()

@@ -34,6 +34,7 @@ pub async fn run_local(
             evaluator: Evaluator::Simulation,
             drain: Duration::from_secs(5),
             max_backoff: Duration::from_millis(500),
+            give_up_after: None,
         },
         stopped,
     ));
