@@ -1,5 +1,7 @@
 //! Helpers for the integration tests: building, locating and running the real binaries.
 
+pub mod slurm;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::sync::OnceLock;

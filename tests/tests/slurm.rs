@@ -1,249 +1,167 @@
-//! The shipped Slurm script (`deploy/slurm/strider.sbatch`) on a private single-node
-//! Slurm cluster: munged, slurmctld and slurmd from Debian's packages, configured in a
-//! temporary directory and stopped afterwards.
+//! The shipped Slurm script (`deploy/slurm/strider.sbatch`, unchanged) across the nodes of
+//! a private three-node Slurm cluster ([`strider_tests::slurm::Cluster`]: one network, host
+//! name and local disk per node, a shared directory, Debian's slurmctld, slurmd and munge).
 //!
-//! Skipped, saying so, when Slurm is not installed; `.ci/run` installs it and sets
-//! `STRIDER_REQUIRE_TOOLS=1`, which turns a missing Slurm into a failure.
+//! Each test starts its own cluster; they run one at a time (they would only slow each
+//! other down on a small machine). Skipped, saying so, where Slurm or namespaces cannot be
+//! had; `.ci/run` installs Slurm and sets `STRIDER_REQUIRE_TOOLS=1`, which turns a skip
+//! into a failure.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 use strider_coordinator::db::Db;
+use strider_tests::slurm::Cluster;
 use strider_tests::{
-    assert_same_library, binary, export, free_port, installed, skip_without, temp_dir,
-    workspace_root, Process,
+    assert_same_library, binary, export, library_run_builds, temp_dir, workspace_root, Process,
 };
 
+/// Two STATIC runs of 20 generations (about 14 s on 2 cores): long enough to lose a node
+/// in the middle.
 const EXPERIMENT: &str = "tests/fixtures/service.toml";
-/// Generous: CI machines are slow and busy; the whole experiment takes well under this.
+/// The nodes' CPUs, all different, so that a worker sized to another node's count shows.
+/// node1 (the first node, where the coordinator runs) keeps 2 for it and gives 2 to its
+/// worker.
+const CPUS: [u32; 3] = [4, 2, 1];
+/// Generous: CI machines are slow and busy; each job takes well under this.
 const JOB: Duration = Duration::from_secs(600);
-const START: Duration = Duration::from_secs(60);
+/// Slurm notices a node that stopped answering within about half a minute (SlurmdTimeout
+/// 5 s, on its own ping cycle).
+const NOTICED: Duration = Duration::from_secs(180);
 
-/// A running private Slurm cluster of one node; stopped (jobs cancelled, daemons ended)
-/// when dropped.
-struct Cluster {
-    dir: PathBuf,
-    conf: PathBuf,
-    // Dropped last to first: slurmd, slurmctld, then munged.
-    munged: Option<Process>,
-    slurmctld: Option<Process>,
-    slurmd: Option<Process>,
+/// One cluster at a time.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
-impl Cluster {
-    /// Starts the cluster, or `None` (after saying so) when Slurm is not installed.
-    fn start(dir: &Path) -> Option<Cluster> {
-        let needed = [
-            "munged",
-            "slurmctld",
-            "slurmd",
-            "sbatch",
-            "squeue",
-            "scancel",
-        ];
-        let missing: Vec<_> = needed.iter().filter(|p| !installed(p)).collect();
-        if !missing.is_empty() {
-            skip_without(&format!(
-                "Slurm is not installed ({missing:?} missing; apt-get install slurmctld slurmd munge)"
-            ));
-            return None;
-        }
-        let munge = dir.join("munge");
-        let spool = dir.join("spool");
-        let state = dir.join("state");
-        for d in [&munge, &spool, &state] {
-            std::fs::create_dir_all(d).unwrap();
-        }
-        let key = munge.join("munge.key");
-        std::fs::write(&key, random_bytes(1024)).unwrap();
-        set_mode(&key, 0o400);
-        set_mode(&munge, 0o755);
-        let socket = munge.join("munge.socket");
-        let mut cmd = Command::new("munged");
-        cmd.args(["--foreground", "--force"])
-            .arg(format!("--socket={}", socket.display()))
-            .arg(format!("--key-file={}", key.display()))
-            .arg(format!("--pid-file={}", munge.join("munged.pid").display()))
-            .arg(format!("--seed-file={}", munge.join("seed").display()))
-            .arg(format!("--log-file={}", munge.join("munged.log").display()));
-        let munged = Process::spawn("munged", cmd);
-        munged.wait_for_line(
-            "creating its socket",
-            |l| l.contains("Created socket"),
-            START,
-        );
+/// The library `run` builds for the experiment on this machine, once per test process.
+fn expected() -> &'static serde_json::Value {
+    static EXPECTED: OnceLock<serde_json::Value> = OnceLock::new();
+    EXPECTED.get_or_init(|| library_run_builds(EXPERIMENT))
+}
 
-        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
-            .unwrap()
-            .trim()
-            .to_string();
-        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let conf = dir.join("slurm.conf");
-        let d = dir.display();
-        std::fs::write(
-            &conf,
-            format!(
-                "ClusterName=strider-test
-SlurmctldHost={host}(127.0.0.1)
-SlurmctldPort={ctld}
-SlurmdPort={slurmd}
-SlurmUser=root
-SlurmdUser=root
-AuthType=auth/munge
-CredType=cred/munge
-AuthInfo=socket={socket}
-StateSaveLocation={d}/state
-SlurmdSpoolDir={d}/spool
-SlurmctldPidFile={d}/slurmctld.pid
-SlurmdPidFile={d}/slurmd.pid
-SlurmctldLogFile={d}/slurmctld.log
-SlurmdLogFile={d}/slurmd.log
-ProctrackType=proctrack/linuxproc
-TaskPlugin=task/none
-SelectType=select/cons_tres
-SelectTypeParameters=CR_CPU
-SchedulerType=sched/backfill
-JobCompType=jobcomp/none
-JobAcctGatherType=jobacct_gather/none
-AccountingStorageType=accounting_storage/none
-MpiDefault=none
-ReturnToService=2
-KillWait=10
-InactiveLimit=0
-NodeName=strider-test NodeHostname={host} NodeAddr=127.0.0.1 CPUs={cpus} State=UNKNOWN
-PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
-",
-                ctld = free_port(),
-                slurmd = free_port(),
-                socket = socket.display(),
-            ),
-        )
-        .unwrap();
-        let mut cluster = Cluster {
-            dir: dir.to_path_buf(),
-            conf,
-            munged: Some(munged),
-            slurmctld: None,
-            slurmd: None,
-        };
-        let mut ctld = cluster.command("slurmctld");
-        ctld.args(["-D", "-i"]);
-        cluster.slurmctld = Some(Process::spawn("slurmctld", ctld));
-        let mut slurmd = cluster.command("slurmd");
-        slurmd.args(["-D", "-N", "strider-test"]);
-        cluster.slurmd = Some(Process::spawn("slurmd", slurmd));
-        cluster.wait_for_idle_node();
-        Some(cluster)
-    }
+/// A batch job submitted with `sbatch --wait` (which returns when the job ends).
+struct Job {
+    name: String,
+    sbatch: Process,
+    output: PathBuf,
+}
 
-    /// A Slurm command that talks to this cluster.
-    fn command(&self, program: &str) -> Command {
-        let mut cmd = Command::new(program);
-        cmd.env("SLURM_CONF", &self.conf).current_dir(&self.dir);
-        cmd
-    }
-
-    /// Polls `sinfo` until the node has registered and is idle (Slurm offers no event).
-    fn wait_for_idle_node(&self) {
-        let deadline = Instant::now() + START;
-        loop {
-            let out = self.command("sinfo").args(["-h", "-o", "%T"]).output();
-            if let Ok(out) = out {
-                if String::from_utf8_lossy(&out.stdout).trim() == "idle" {
-                    return;
-                }
-            }
-            assert!(
-                Instant::now() < deadline,
-                "the Slurm node never became idle; slurmctld log:\n{}\nslurmd log:\n{}",
-                self.daemon_log("slurmctld.log"),
-                self.daemon_log("slurmd.log")
-            );
-            std::thread::sleep(Duration::from_millis(200));
-        }
-    }
-
-    fn daemon_log(&self, name: &str) -> String {
-        std::fs::read_to_string(self.dir.join(name)).unwrap_or_default()
-    }
-
-    /// Submits the shipped script with `sbatch --wait` (returns when the job ends).
-    fn submit(&self, name: &str, sbatch_args: &[&str], env: &[(&str, &str)]) -> Process {
-        let mut cmd = self.command("sbatch");
-        cmd.arg("--wait")
-            .arg(format!("--job-name={name}"))
-            .arg(format!(
-                "--output={}",
-                self.dir.join(format!("{name}.out")).display()
-            ))
-            .args(sbatch_args)
-            .arg(workspace_root().join("deploy/slurm/strider.sbatch"))
-            .arg(workspace_root().join(EXPERIMENT));
-        for (k, v) in env {
-            cmd.env(k, v);
-        }
-        cmd.env(
+/// Submits the shipped script with the experiment, from the shared directory, with
+/// `TMPDIR` at every node's local directory and the run directory `run_dir`.
+fn submit(
+    cluster: &Cluster,
+    name: &str,
+    run_dir: &Path,
+    sbatch_args: &[&str],
+    env: &[(&str, &str)],
+) -> Job {
+    let output = cluster.shared().join(format!("{name}.out"));
+    let mut cmd = cluster.command("sbatch");
+    cmd.arg("--wait")
+        .arg(format!("--job-name={name}"))
+        .arg(format!("--output={}", output.display()))
+        .arg(format!("--chdir={}", cluster.shared().display()))
+        .args(sbatch_args)
+        .arg(workspace_root().join("deploy/slurm/strider.sbatch"))
+        .arg(workspace_root().join(EXPERIMENT))
+        .env("STRIDER_RUN_DIR", run_dir)
+        .env("TMPDIR", cluster.local_mount())
+        .env(
             "STRIDER_BIN_DIR",
             binary("strider-coordinator").parent().unwrap(),
         )
-        .env("STRIDER_PROGRESS_EVERY", "1");
-        Process::spawn(name, cmd)
+        .env("STRIDER_PROGRESS_EVERY", "1")
+        // Lost workers' leases come back within seconds, not the default minute.
+        .env("STRIDER_SERVE_ARGS", "--lease-seconds 4")
+        .env("STRIDER_WORKER_ARGS", "--max-backoff-seconds 1")
+        // A coordinator whose node is lost: its workers cancel the job after 15 s.
+        .env("STRIDER_GIVE_UP_AFTER", "15");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    Job {
+        name: name.into(),
+        sbatch: Process::spawn(name, cmd),
+        output,
+    }
+}
+
+impl Job {
+    /// What the job has written so far (its script, coordinator and workers).
+    fn output(&self) -> String {
+        std::fs::read_to_string(&self.output).unwrap_or_default()
     }
 
-    /// Waits for a submitted job; panics with its output unless it succeeded.
-    fn finish(&self, mut job: Process, name: &str) -> String {
-        let status = job.wait_exit(JOB);
-        let output = std::fs::read_to_string(self.dir.join(format!("{name}.out")))
-            .unwrap_or_else(|e| format!("(no job output: {e})"));
+    /// Polls the job's output (a file Slurm writes; no event to wait on) until a line
+    /// satisfies `pred`.
+    fn wait_for_line(&self, what: &str, pred: impl Fn(&str) -> bool) -> String {
+        let deadline = Instant::now() + JOB;
+        loop {
+            if let Some(line) = self.output().lines().find(|l| pred(l)) {
+                return line.to_string();
+            }
+            assert!(
+                Instant::now() < deadline,
+                "job {}: no line {what}; its output:\n{}\nsbatch said:\n{}",
+                self.name,
+                self.output(),
+                self.sbatch.log()
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// Waits until the coordinator reports at least `percent` % of the experiment done.
+    fn wait_for_done(&self, percent: f64) {
+        self.wait_for_line(&format!("with {percent} % done"), |l| {
+            percent_done(l).is_some_and(|p| p >= percent)
+        });
+    }
+
+    /// Waits for the job to end; its exit status and output.
+    fn end(mut self, timeout: Duration) -> (std::process::ExitStatus, String) {
+        let status = self.sbatch.wait_exit(timeout);
+        (status, self.output())
+    }
+
+    /// Waits for the job to end; panics with its output unless it succeeded.
+    fn finish(self) -> String {
+        let name = self.name.clone();
+        let log = self.sbatch.log();
+        let (status, output) = self.end(JOB);
         assert!(
             status.success(),
-            "job {name} failed ({status}); sbatch said:\n{}\njob output:\n{output}",
-            job.log()
+            "job {name} failed ({status}); sbatch said:\n{log}\njob output:\n{output}"
         );
         output
     }
 }
 
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        // Cancel every job first, so slurmstepd ends our processes, then the daemons.
-        let _ = self.command("scancel").arg("--user=root").status();
-        let deadline = Instant::now() + Duration::from_secs(30);
-        while Instant::now() < deadline {
-            match self.command("squeue").args(["-h", "-o", "%i"]).output() {
-                Ok(o) if o.status.success() && o.stdout.is_empty() => break,
-                Ok(o) if o.status.success() => {}
-                _ => break,
-            }
-            std::thread::sleep(Duration::from_millis(200));
-        }
-        for p in [&self.slurmd, &self.slurmctld, &self.munged]
-            .into_iter()
-            .flatten()
-        {
-            // SAFETY: kill(2) on our own child.
-            unsafe { libc::kill(p.pid() as i32, libc::SIGTERM) };
-        }
-        for p in [&mut self.slurmd, &mut self.slurmctld, &mut self.munged] {
-            if let Some(mut p) = p.take() {
-                let _ = p.wait_exit(Duration::from_secs(30));
-            }
-        }
-    }
+/// The state Slurm's record of job `name` gives (`COMPLETED`, `CANCELLED`, ...; records
+/// are kept for 5 minutes after a job ends).
+fn job_state(cluster: &Cluster, name: &str) -> String {
+    let out = cluster
+        .command("scontrol")
+        .args(["--oneliner", "show", "job"])
+        .output()
+        .expect("scontrol runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines()
+        .find(|l| l.split(' ').any(|f| f == format!("JobName={name}")))
+        .and_then(|l| l.split(' ').find_map(|f| f.strip_prefix("JobState=")))
+        .unwrap_or_else(|| panic!("no job {name} in:\n{text}"))
+        .to_string()
 }
 
-fn random_bytes(n: usize) -> Vec<u8> {
-    use std::io::Read;
-    let mut buf = vec![0; n];
-    std::fs::File::open("/dev/urandom")
-        .and_then(|mut f| f.read_exact(&mut buf))
-        .expect("reading /dev/urandom");
-    buf
-}
-
-fn set_mode(path: &Path, mode: u32) {
-    use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
+/// The "N % done" of a coordinator progress line.
+fn percent_done(line: &str) -> Option<f64> {
+    let before = line
+        .split(" % done")
+        .next()
+        .filter(|_| line.contains(" % done"))?;
+    before.rsplit(' ').next()?.parse().ok()
 }
 
 fn unfinished_runs(db: &Path) -> usize {
@@ -253,64 +171,211 @@ fn unfinished_runs(db: &Path) -> usize {
     })
 }
 
+/// Starts a cluster in a fresh directory (`None`: skipped, already said why).
+fn cluster(name: &str) -> Option<(Cluster, PathBuf)> {
+    let dir = temp_dir(name);
+    Cluster::start(&dir, &CPUS).map(|c| (c, dir))
+}
+
 #[test]
-fn the_batch_script_runs_an_experiment_and_a_job_cut_short_is_resumed_by_the_next() {
-    let dir = temp_dir("slurm");
-    let Some(cluster) = Cluster::start(&dir) else {
+fn three_nodes_in_one_job_build_the_library_run_builds() {
+    let _one = one_at_a_time();
+    let expected = expected();
+    let Some((cluster, dir)) = cluster("slurm-three") else {
         return;
     };
-
-    // One allocation, uninterrupted: coordinator and a worker on the node.
-    let whole = dir.join("whole");
-    let whole_dir = whole.to_str().unwrap();
-    let job = cluster.submit("whole", &["--nodes=1"], &[("STRIDER_RUN_DIR", whole_dir)]);
-    let output = cluster.finish(job, "whole");
-    assert!(output.contains("coordinator done"), "{output}");
-    assert_eq!(unfinished_runs(&whole.join("strider.db")), 0, "{output}");
-    let expected = export(&whole.join("strider.db"));
-
-    // The same, with a one-minute limit and leasing stopped 58 s before it (after 2 s of
-    // the run's 3): cut short.
-    let cut = dir.join("cut");
-    let cut_dir = cut.to_str().unwrap();
-    let job = cluster.submit(
-        "cut",
-        &["--nodes=1", "--time=1"],
-        &[("STRIDER_RUN_DIR", cut_dir), ("STRIDER_STOP_MARGIN", "58")],
+    let run_dir = cluster.shared().join("run");
+    let job = submit(&cluster, "three", &run_dir, &["--nodes=3"], &[]);
+    // The live database is on the coordinator's node, in its local directory.
+    let line = job.wait_for_line("starting the coordinator", |l| {
+        l.contains("coordinator on node1")
+    });
+    let local = cluster.local_mount().display().to_string();
+    assert!(line.contains(&format!("--db {local}/strider-")), "{line}");
+    job.wait_for_done(10.0);
+    let live: Vec<_> = std::fs::read_dir(cluster.node_local("node1"))
+        .unwrap()
+        .map(|e| e.unwrap().path().join("strider.db"))
+        .collect();
+    assert!(
+        live.len() == 1 && live[0].is_file(),
+        "node1's local directory should hold the live database: {live:?}"
     );
-    let output = cluster.finish(job, "cut");
+    for node in ["node2", "node3"] {
+        assert_eq!(
+            std::fs::read_dir(cluster.node_local(node)).unwrap().count(),
+            0,
+            "nothing on {node}'s local disk"
+        );
+    }
+    let output = job.finish();
+
+    // A worker on every node, each sized to its own node; node1's leaves the coordinator
+    // its 2 cores.
+    for (node, threads) in [("node1", 2), ("node2", 2), ("node3", 1)] {
+        assert!(
+            output.contains(&format!("worker on {node}: {threads} threads")),
+            "{output}"
+        );
+        assert!(
+            output
+                .lines()
+                .any(|l| l.contains("worker connected") && l.contains(&format!("{node} pid"))),
+            "no worker from {node} connected:\n{output}"
+        );
+    }
+    assert!(output.contains("coordinator done"), "{output}");
+    assert_eq!(job_state(&cluster, "three"), "COMPLETED");
+    // The copy on shared storage is the whole run; the live database is gone with the job.
+    let copy = run_dir.join("strider.db");
+    assert_eq!(unfinished_runs(&copy), 0, "{output}");
+    assert!(
+        !live[0].exists(),
+        "the live database should be removed after a clean exit"
+    );
+    assert_same_library(&export(&copy), expected);
+    drop(cluster);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_worker_node_lost_mid_run_leaves_the_job_running_and_the_library_unchanged() {
+    let _one = one_at_a_time();
+    let expected = expected();
+    let Some((mut cluster, dir)) = cluster("slurm-lost-worker") else {
+        return;
+    };
+    let run_dir = cluster.shared().join("run");
+    let job = submit(&cluster, "lost-worker", &run_dir, &["--nodes=3"], &[]);
+    job.wait_for_line("node3's worker connecting", |l| {
+        l.contains("worker connected") && l.contains("node3 pid")
+    });
+    job.wait_for_done(20.0);
+    cluster.lose_node("node3");
+    let output = job.finish();
+    // Slurm saw the node go, and the job went on without it.
+    cluster.wait_for_node_state("node3", "down", NOTICED);
+    assert!(output.contains("coordinator done"), "{output}");
+    let copy = run_dir.join("strider.db");
+    assert_eq!(unfinished_runs(&copy), 0, "{output}");
+    assert_same_library(&export(&copy), expected);
+    drop(cluster);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_coordinator_node_lost_ends_the_job_and_the_next_job_resumes_from_the_shared_copy() {
+    let _one = one_at_a_time();
+    let expected = expected();
+    let Some((mut cluster, dir)) = cluster("slurm-lost-coordinator") else {
+        return;
+    };
+    let run_dir = cluster.shared().join("run");
+    let copy = run_dir.join("strider.db");
+    let job = submit(
+        &cluster,
+        "lost-coordinator",
+        &run_dir,
+        &["--nodes=3"],
+        &[("STRIDER_BACKUP_EVERY", "1")],
+    );
+    job.wait_for_done(30.0);
+    assert!(copy.is_file(), "no copy on shared storage yet");
+    cluster.lose_node("node1");
+    // The workers on node2 and node3 give up on their coordinator and cancel the job
+    // (`sbatch --wait` says 0 for a cancelled job; Slurm's record says what happened).
+    let (_, output) = job.end(JOB);
+    assert_eq!(
+        job_state(&cluster, "lost-coordinator"),
+        "CANCELLED",
+        "{output}"
+    );
+    assert!(
+        unfinished_runs(&copy) > 0,
+        "the copy should be of an unfinished run:\n{output}"
+    );
+
+    // Submitted again: node1 is down, so the coordinator runs on node2, from the copy.
+    let again = submit(&cluster, "again", &run_dir, &["--nodes=2"], &[]);
+    let output = again.finish();
+    assert!(output.contains("coordinator on node2"), "{output}");
+    assert!(output.contains("starting from the copy"), "{output}");
+    assert_eq!(unfinished_runs(&copy), 0, "{output}");
+    assert_same_library(&export(&copy), expected);
+    drop(cluster);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_job_cut_short_is_resumed_by_a_coordinator_job_and_a_separate_two_node_worker_job() {
+    let _one = one_at_a_time();
+    let expected = expected();
+    let Some((cluster, dir)) = cluster("slurm-separate") else {
+        return;
+    };
+    let run_dir = cluster.shared().join("run");
+    let copy = run_dir.join("strider.db");
+
+    // A one-minute limit with leasing stopped 58 s before it (after 2 s): cut short.
+    let cut = submit(
+        &cluster,
+        "cut",
+        &run_dir,
+        &["--nodes=1", "--time=1"],
+        &[("STRIDER_STOP_MARGIN", "58")],
+    );
+    let output = cut.finish();
     assert!(output.contains("leasing stops after"), "{output}");
     assert!(output.contains("out of time"), "{output}");
     assert!(
-        unfinished_runs(&cut.join("strider.db")) > 0,
+        unfinished_runs(&copy) > 0,
         "the time limit should have cut the run short:\n{output}"
     );
 
-    // Submitted again, as separate coordinator and worker jobs, with the live database on
-    // "node-local" disk: it starts from the run directory's database, goes on to the end,
-    // and leaves its copy there.
-    let local_db = dir.join("node-local").join("strider.db");
-    let coordinator = cluster.submit(
+    // Submitted again as the header says, as a small coordinator job and a worker job on
+    // the two other nodes that finds it through the address file.
+    let coordinator = submit(
+        &cluster,
         "coordinator",
-        &["--nodes=1", "--oversubscribe", "--cpus-per-task=1"],
+        &run_dir,
         &[
-            ("STRIDER_RUN_DIR", cut_dir),
-            ("STRIDER_ROLE", "coordinator"),
-            ("STRIDER_DB", local_db.to_str().unwrap()),
+            "--nodes=1",
+            "--ntasks-per-node=1",
+            "--cpus-per-task=2",
+            "--oversubscribe",
         ],
+        &[("STRIDER_ROLE", "coordinator")],
     );
-    let workers = cluster.submit(
+    coordinator.wait_for_line("the coordinator serving", |l| {
+        l.contains("serving experiment")
+    });
+    let workers = submit(
+        &cluster,
         "workers",
-        &["--nodes=1", "--oversubscribe", "--cpus-per-task=1"],
-        &[("STRIDER_RUN_DIR", cut_dir), ("STRIDER_ROLE", "workers")],
+        &run_dir,
+        &["--nodes=2"],
+        &[("STRIDER_ROLE", "workers")],
     );
-    let output = cluster.finish(coordinator, "coordinator");
+    let output = coordinator.finish();
     assert!(output.contains("starting from the copy"), "{output}");
-    cluster.finish(workers, "workers");
-    assert_eq!(unfinished_runs(&local_db), 0, "{output}");
-    assert_eq!(unfinished_runs(&cut.join("strider.db")), 0, "{output}");
-    assert_same_library(&export(&cut.join("strider.db")), &expected);
-
+    let worker_output = workers.finish();
+    assert!(worker_output.contains("workers done"), "{worker_output}");
+    let coordinator_node = output
+        .lines()
+        .find_map(|l| l.split("coordinator on ").nth(1))
+        .and_then(|rest| rest.split(':').next())
+        .unwrap_or_else(|| panic!("no coordinator line:\n{output}"))
+        .to_string();
+    for node in cluster.nodes() {
+        let here = worker_output.contains(&format!("worker on {node}:"));
+        assert_eq!(
+            here,
+            node != coordinator_node,
+            "workers on the two nodes the coordinator is not on:\n{worker_output}"
+        );
+    }
+    assert_eq!(unfinished_runs(&copy), 0, "{output}");
+    assert_same_library(&export(&copy), expected);
     drop(cluster);
     std::fs::remove_dir_all(&dir).unwrap();
 }
