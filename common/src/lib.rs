@@ -18,6 +18,7 @@ pub mod mass;
 pub mod outcome;
 pub mod params;
 pub mod pose;
+pub mod precheck;
 pub mod rng;
 pub mod urdf;
 pub mod variation;
@@ -30,6 +31,7 @@ pub use features::{CellIndex, FeatureGrid, Features};
 pub use genome::{Controller, Genome, Morphology};
 pub use outcome::{Fall, InvalidReason, Outcome, Shortfall, Standing, TrialStats};
 pub use pose::StartPose;
+pub use precheck::EvalContext;
 pub use variation::{MutationRates, Scheme};
 
 /// The Strider build: trials are bit-identical only within one build (see

@@ -2,7 +2,8 @@
 //! features, fitness, trial statistics and full genome (CSV or JSON), and how an elite is
 //! named on the command line (`RUN:CELL` or `best`). Plain functions over plain data.
 
-use crate::db::{RunRecord, StoredInfeasible};
+use crate::changes::RunRecord;
+use crate::db::StoredInfeasible;
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;
@@ -103,7 +104,7 @@ pub fn csv_header() -> String {
 /// The per-generation CSV's header: the run, the generation, the candidates it evaluated
 /// (the initial population's draws for generation 0, those refused before simulating
 /// included) and all of the run's so far, then the library's statistics after it
-/// ([`GenerationStats`]).
+/// ([`GenerationStats`](crate::library::GenerationStats)).
 pub const GENERATIONS_CSV_HEADER: &str = "run,scheme,repeat,generation,evaluations,\
 cumulative_evaluations,coverage,\
 feasible_elites,max_fitness,mean_fitness,min_fitness,qd_score,new,improved,discarded,\

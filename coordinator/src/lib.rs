@@ -2,6 +2,8 @@
 //! that leases them to workers, the database, the gRPC service and the analysis.
 
 pub mod analysis;
+pub mod changes;
+pub mod commands;
 pub mod db;
 pub mod evolution;
 pub mod export;

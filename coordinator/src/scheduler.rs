@@ -11,17 +11,18 @@
 //! population ends at the candidate that brings its passes to the target. So neither the
 //! number of workers, nor their speed, nor restarts change a run.
 
-use crate::db::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
+use crate::changes::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
 use crate::evolution::{initial_candidate, offspring, Parents};
 use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use strider_common::experiment::{ConstraintHandling, RunSettings};
+use strider_common::precheck::precheck;
 use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
+use strider_common::EvalContext;
 use strider_common::{
     BodyPlan, CellIndex, Experiment, Features, Genome, InvalidReason, Outcome, Scheme, Standing,
 };
-use strider_worker::evaluate::{precheck, EvalContext};
 
 /// The most initial-population candidates a run draws ahead of the first one not yet
 /// applied. Bounds memory and the draws wasted once the population is complete; does not

@@ -8,7 +8,8 @@
 //! stored outcomes are what the physics gives is the other half (re-simulating a sample,
 //! done by the command line, which owns the simulator). Plain functions over plain data.
 
-use crate::db::{RunRecord, StoredCandidate, Write};
+use crate::changes::{RunRecord, Write};
+use crate::db::StoredCandidate;
 use crate::scheduler::{Scheduler, WorkerId};
 use std::collections::HashMap;
 use std::collections::HashSet;

@@ -4,13 +4,13 @@
 
 use std::time::{Duration, Instant};
 use strider_common::rng::{CandidateNumber, CandidateSeed};
+use strider_common::EvalContext;
 use strider_common::{Experiment, InvalidReason, Outcome};
-use strider_coordinator::db::{RunRecord, Write};
+use strider_coordinator::changes::{RunRecord, Write};
 use strider_coordinator::library::{InfeasibleLibrary, Library};
 use strider_coordinator::scheduler::{
     fraction_done, Accepted, Assignment, CandidateKey, Refusal, RunProgress, Scheduler, WorkerId,
 };
-use strider_worker::evaluate::EvalContext;
 use strider_worker::synthetic::instant_outcome;
 
 const EXPERIMENT: &str = r#"

@@ -1,4 +1,5 @@
-//! Process plumbing both binaries share: the log setup and the exit status of an error.
+//! Process plumbing both binaries share: the log setup, the exit status of an error, a
+//! reader that closed the pipe, and how many threads to use.
 
 /// A command line that cannot run as given (a flag out of range, a bad log filter): exits
 /// 2, as clap's own usage errors do. Every other error (a file that does not load, a
@@ -105,9 +106,63 @@ pub fn duration_words(seconds: f64) -> String {
     }
 }
 
+/// The number of threads to use by default: every core.
+pub fn default_threads() -> std::num::NonZeroUsize {
+    std::thread::available_parallelism().unwrap_or(std::num::NonZeroUsize::MIN)
+}
+
+/// Whether `e` comes from writing to a pipe whose reader has gone (`strider-coordinator
+/// analyse | head`): the reader had enough, so the command ends quietly with success.
+/// SIGPIPE is left ignored, as Rust sets it: the same binaries serve gRPC, where a peer
+/// that goes away must not kill the process.
+pub fn closed_pipe(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut cause = Some(e);
+    while let Some(c) = cause {
+        let kind = c
+            .downcast_ref::<std::io::Error>()
+            .map(|io| io.kind())
+            .or_else(|| {
+                c.downcast_ref::<serde_json::Error>()
+                    .and_then(|j| j.io_error_kind())
+            });
+        if kind == Some(std::io::ErrorKind::BrokenPipe) {
+            return true;
+        }
+        cause = c.source();
+    }
+    false
+}
+
+/// Completes on SIGTERM or Ctrl-C (SIGINT) and says which: 15 or 2.
+pub async fn stop_signal() -> i32 {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+        tokio::select! {
+            _ = term.recv() => 15,
+            _ = tokio::signal::ctrl_c() => 2,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+        2
+    }
+}
+
+/// This machine's host name (`localhost` where it cannot be read).
+pub fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .ok()
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "localhost".into())
+}
+
 #[cfg(test)]
 mod tests {
-    use super::duration_words;
+    use super::{closed_pipe, duration_words};
 
     #[test]
     fn durations_read_as_seconds_minutes_or_hours() {
@@ -119,5 +174,29 @@ mod tests {
         assert_eq!(duration_words(5399.0), "90 min");
         assert_eq!(duration_words(5400.0), "1 h 30 min");
         assert_eq!(duration_words(11_100.0), "3 h 05 min");
+    }
+
+    /// An error with a cause, as context wrappers make.
+    #[derive(Debug)]
+    struct Wrapped(std::io::Error);
+    impl std::fmt::Display for Wrapped {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("writing the table")
+        }
+    }
+    impl std::error::Error for Wrapped {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_closed_pipe_is_found_under_context_and_other_errors_are_not_one() {
+        let pipe = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
+        assert!(closed_pipe(&pipe()));
+        assert!(closed_pipe(&Wrapped(pipe())));
+        assert!(closed_pipe(&serde_json::Error::io(pipe())));
+        let denied = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        assert!(!closed_pipe(&Wrapped(denied)));
     }
 }

@@ -7,6 +7,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::Genome;
 use strider_proto::convert::scheme_from_wire;
 use strider_proto::v1::{
@@ -14,7 +15,7 @@ use strider_proto::v1::{
     worker_service_client::WorkerServiceClient, CoordinatorMessage, WorkerMessage,
 };
 use strider_tests::{binary, temp_dir, Process};
-use strider_worker::evaluate::{evaluate, EvalContext};
+use strider_worker::evaluate::evaluate;
 use tokio::sync::mpsc;
 use tonic::transport::Channel;
 use tonic::{Code, Request, Status, Streaming};

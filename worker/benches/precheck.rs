@@ -4,8 +4,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rand::SeedableRng;
+use strider_common::precheck::precheck;
+use strider_common::EvalContext;
 use strider_common::{BodyPlan, Genome, Scheme};
-use strider_worker::evaluate::{precheck, EvalContext};
 
 fn genomes(scheme: Scheme) -> Vec<Genome> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);

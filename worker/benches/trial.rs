@@ -6,9 +6,10 @@ use std::num::NonZeroUsize;
 use std::path::Path;
 use strider_common::params::M;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{BodyPlan, Controller, Genome, Scheme};
 use strider_worker::batch::{evaluate_batch, Job};
-use strider_worker::evaluate::{evaluate, EvalContext};
+use strider_worker::evaluate::evaluate;
 use strider_worker::sim::trial::{run_trial, TrialEnd};
 
 fn max() -> Genome {

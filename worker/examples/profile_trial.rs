@@ -2,8 +2,8 @@
 //! `valgrind --tool=callgrind target/release/examples/profile_trial 10`.
 
 use std::path::Path;
+use strider_common::EvalContext;
 use strider_common::{BodyPlan, Controller, Genome};
-use strider_worker::evaluate::EvalContext;
 use strider_worker::sim::trial::run_trial;
 
 fn main() {

@@ -2,11 +2,12 @@
 //! candidate order. Threads take the next candidate from a shared counter, so a long trial
 //! (ES, many legs) never holds up the others.
 
-use crate::evaluate::{evaluate, EvalContext};
+use crate::evaluate::evaluate;
 use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{Genome, Outcome, Scheme};
 
 /// One candidate to evaluate.
@@ -18,11 +19,6 @@ pub struct Job {
     pub scheme: Scheme,
     /// Its seed (ES draws from it).
     pub seed: CandidateSeed,
-}
-
-/// The number of threads to use by default: every core.
-pub fn default_threads() -> NonZeroUsize {
-    std::thread::available_parallelism().unwrap_or(NonZeroUsize::MIN)
 }
 
 /// Evaluates every job on `threads` threads; `outcomes[i]` belongs to `jobs[i]`.

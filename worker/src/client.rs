@@ -4,7 +4,6 @@
 //! heartbeats, and on shutdown give back what has not started and finish (or give back)
 //! the rest within a bound.
 
-use crate::evaluate::EvalContext;
 use crate::pool::{Answer, SimPool, Trial};
 use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
@@ -14,6 +13,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{Experiment, Genome, Scheme};
 use strider_proto::convert::scheme_from_wire;
 use strider_proto::v1::{

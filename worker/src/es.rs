@@ -11,9 +11,10 @@
 //! stopped before simulating. A fallen child thus ranks below every child that stayed up.
 //! Plain fitness comparison would leave the strategy blind until a child passed the brief.
 
-use crate::evaluate::{evaluate_controller, EvalContext};
+use crate::trial_outcome::evaluate_controller;
 use rand::Rng;
 use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::EvalContext;
 use strider_common::{BodyPlan, Controller, Genome, Outcome};
 
 /// Tunes the controller of `genome`'s morphology; returns the best outcome found.

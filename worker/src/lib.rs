@@ -2,8 +2,8 @@
 
 pub mod batch;
 pub mod calibrate;
-pub mod cli;
 pub mod client;
+pub mod commands;
 pub mod es;
 pub mod evaluate;
 pub mod pool;
@@ -12,3 +12,4 @@ pub mod sim;
 pub mod survey;
 pub mod synthetic;
 pub mod trace;
+pub mod trial_outcome;

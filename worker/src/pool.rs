@@ -7,10 +7,11 @@
 //! migrations, colder caches and malloc arenas, and about 15 % more CPU per trial than the
 //! batch evaluator (BENCHMARKS.md, "`run` against the batch evaluator alone").
 
-use crate::evaluate::{evaluate, EvalContext};
+use crate::evaluate::evaluate;
 use std::num::NonZeroUsize;
 use std::time::Instant;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{Genome, Outcome, Scheme};
 use tokio::sync::OwnedSemaphorePermit;
 

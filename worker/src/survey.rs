@@ -4,7 +4,7 @@
 //! (`strider_common::kinematics`) that explain each failure with a physical cause.
 
 use crate::batch::map_batch;
-use crate::evaluate::{evaluate, EvalContext};
+use crate::evaluate::evaluate;
 use serde::Serialize;
 use std::fmt;
 use std::num::NonZeroUsize;
@@ -15,6 +15,7 @@ use strider_common::genome::ParamVector;
 use strider_common::kinematics::{gait_period, speed_estimate, GaitSweep};
 use strider_common::params::{CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
 use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::EvalContext;
 use strider_common::{Controller, Fall, Genome, InvalidReason, Outcome, Scheme, StartPose};
 
 /// Which two parts met in a self-contact.

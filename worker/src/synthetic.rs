@@ -7,9 +7,10 @@
 //! third of the simulated candidates meet the brief, a third run to the end too slowly,
 //! and a third fall, so that both libraries of a feasible-infeasible search fill.
 
-use crate::evaluate::{precheck_plan, EvalContext};
 use strider_common::brief::{Constraint, Violation};
+use strider_common::precheck::precheck_plan;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{
     BodyPlan, Fall, Features, Genome, InvalidReason, Outcome, Scheme, TrialStats,
 };

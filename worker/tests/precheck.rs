@@ -4,9 +4,11 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use strider_common::precheck::precheck;
 use strider_common::rng::CandidateSeed;
+use strider_common::EvalContext;
 use strider_common::{Genome, InvalidReason, Outcome, Scheme};
-use strider_worker::evaluate::{evaluate, precheck, EvalContext};
+use strider_worker::evaluate::evaluate;
 
 #[test]
 fn precheck_agrees_with_evaluate_whenever_it_decides() {

@@ -6,13 +6,15 @@ use std::num::NonZeroUsize;
 use strider_common::experiment::TrialLimits;
 use strider_common::params::{M, MOTOR_MAX_SPEED};
 use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::EvalContext;
 use strider_common::{
     BodyPlan, Controller, Fall, Genome, InvalidReason, Outcome, Scheme, StartPose,
 };
 use strider_worker::batch::{evaluate_batch, Job};
-use strider_worker::evaluate::{evaluate, evaluate_controller, EvalContext};
+use strider_worker::evaluate::evaluate;
 use strider_worker::sim::trial::{run_trial, run_trial_with, Observer, Sample, TrialEnd, GRAVITY};
 use strider_worker::sim::world::RobotWorld;
+use strider_worker::trial_outcome::evaluate_controller;
 
 fn max() -> Genome {
     Genome::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
@@ -506,12 +508,12 @@ fn parts_touching_in_the_start_pose_are_rejected_before_simulating() {
     }
     // The coordinator's check before leasing says the same, without a trial.
     assert_eq!(
-        strider_worker::evaluate::precheck(&ctx(), &g, Scheme::Genome),
+        strider_common::precheck::precheck(&ctx(), &g, Scheme::Genome),
         Some(o)
     );
     // MAX itself starts clear.
     assert_eq!(
-        strider_worker::evaluate::precheck(&ctx(), &max(), Scheme::Static),
+        strider_common::precheck::precheck(&ctx(), &max(), Scheme::Static),
         None
     );
 }

@@ -5,7 +5,8 @@
 //! the service's bottleneck).
 
 use super::checksum::CandidateColumns;
-use super::{placement_name, standing_figure, Db, DbError, RunPosition, StepCommit, Write};
+use super::{placement_name, standing_figure, Db, DbError};
+use crate::changes::{RunPosition, StepCommit, Write};
 use crate::library::GenerationStats;
 use sqlx::Row;
 use std::collections::HashMap;
@@ -494,7 +495,7 @@ async fn write_step(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::db::{RunPosition, StepCommit};
+    use crate::changes::{RunPosition, StepCommit};
     use strider_common::rng::CandidateNumber;
 
     fn lost(run: i64, number: u64, generation: u32) -> Write {

@@ -5,6 +5,8 @@
 pub mod auth;
 pub mod client_api;
 pub mod incoming;
+/// `run`: needs the simulator (the `simulator` feature).
+#[cfg(feature = "simulator")]
 pub mod local;
 pub mod metrics;
 pub mod pace;
@@ -146,7 +148,7 @@ impl Shared {
     }
 
     /// Hands changes to the writer, in order, counting them in the backlog.
-    pub fn write(&self, writes: Vec<crate::db::Write>) {
+    pub fn write(&self, writes: Vec<crate::changes::Write>) {
         if writes.is_empty() {
             return;
         }

@@ -3,7 +3,7 @@
 //! releases, and gives every lease back the moment the stream ends.
 
 use super::Shared;
-use crate::db::Write;
+use crate::changes::Write;
 use crate::scheduler::{CandidateKey, Refusal, WorkerId};
 use std::collections::HashSet;
 use std::pin::Pin;

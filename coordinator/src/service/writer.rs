@@ -9,7 +9,8 @@
 //! run, each waking the writer, SQLite's thread and the kernel beside the simulations).
 
 use super::Backlog;
-use crate::db::{Db, DbError, PreparedGroup, Write};
+use crate::changes::Write;
+use crate::db::{Db, DbError, PreparedGroup};
 use std::sync::Arc;
 use tokio::sync::{mpsc, oneshot};
 

@@ -2,17 +2,19 @@
 //! finished `run` simulated, again, with the batch evaluator alone (no coordinator, no
 //! gRPC, no database), and prints the trials per second.
 //!
-//! `cargo run --release -p strider-coordinator --example evaluator_alone -- DB [THREADS]`
+//! `cargo run --release -p strider-worker --example evaluator_alone -- DB [THREADS]`
 
 use sqlx::sqlite::SqliteConnectOptions;
 use sqlx::{ConnectOptions, Row};
 use std::num::NonZeroUsize;
 use std::str::FromStr;
 use std::time::Instant;
+use strider_common::precheck::precheck;
 use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
+use strider_common::EvalContext;
 use strider_common::{Experiment, Genome, Scheme};
-use strider_worker::batch::{default_threads, evaluate_batch, Job};
-use strider_worker::evaluate::{precheck, EvalContext};
+use strider_proto::process::default_threads;
+use strider_worker::batch::{evaluate_batch, Job};
 
 #[tokio::main(flavor = "current_thread")]
 async fn main() -> anyhow::Result<()> {

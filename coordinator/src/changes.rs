@@ -1,0 +1,207 @@
+//! What the scheduler hands to storage and takes back on a restart: the changes it emits
+//! (results, lost leases, applied steps, worker sessions), the runs' state, and the
+//! pending candidates of an open step. Plain data; the scheduler and the database both
+//! depend on it, neither on the other.
+
+use crate::library::{
+    Elite, GenerationStats, InfeasibleElite, InfeasibleLibrary, InfeasiblePlacement, Library,
+    Placement,
+};
+use strider_common::experiment::RunSpec;
+use strider_common::rng::CandidateNumber;
+use strider_common::{CellIndex, Genome, Outcome};
+
+/// One run's persistent state.
+#[derive(Clone, Debug)]
+pub struct RunRecord {
+    /// Row id (0-based, in experiment order).
+    pub id: i64,
+    /// Scheme, repeat and seed.
+    pub spec: RunSpec,
+    /// Last committed generation (0: the initial population, complete or not).
+    pub generation: u32,
+    /// Candidates of the initial population that count toward its size so far.
+    pub initial_passed: u32,
+    /// First candidate number not yet committed.
+    pub next_candidate: u64,
+    /// Whether the run has done all its generations.
+    pub finished: bool,
+    /// Its feasible library.
+    pub library: Library,
+    /// Its infeasible library (empty under the paper's method).
+    pub infeasible: InfeasibleLibrary,
+}
+
+/// One evaluated candidate applied to its run's library, ready to store.
+#[derive(Clone, Debug)]
+pub struct AppliedCandidate {
+    /// Its number.
+    pub number: CandidateNumber,
+    /// Its generation (0 = initial population).
+    pub generation: u32,
+    /// Its genome.
+    pub genome: Genome,
+    /// Its outcome.
+    pub outcome: Outcome,
+    /// What it did to the feasible library.
+    pub placement: Placement,
+    /// What it did to the infeasible library, if it was offered there.
+    pub infeasible: Option<InfeasiblePlacement>,
+}
+
+/// Where a run stands (the `runs` row).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunPosition {
+    /// Last completed generation.
+    pub generation: u32,
+    /// Valid candidates in the initial population so far.
+    pub initial_passed: u32,
+    /// First candidate number not yet applied.
+    pub next_candidate: u64,
+    /// Whether the run has done all its generations.
+    pub finished: bool,
+}
+
+impl RunRecord {
+    /// A run that has not begun: no candidate, empty libraries.
+    pub fn new(id: i64, spec: RunSpec) -> Self {
+        Self {
+            id,
+            spec,
+            generation: 0,
+            initial_passed: 0,
+            next_candidate: 0,
+            finished: false,
+            library: Library::new(),
+            infeasible: InfeasibleLibrary::default(),
+        }
+    }
+
+    /// `counts` completed with both libraries' figures.
+    pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
+        self.infeasible
+            .summary(self.library.summary(counts, cell_count), &self.library)
+    }
+
+    /// Its position.
+    pub fn position(&self) -> RunPosition {
+        RunPosition {
+            generation: self.generation,
+            initial_passed: self.initial_passed,
+            next_candidate: self.next_candidate,
+            finished: self.finished,
+        }
+    }
+}
+
+/// A step of a run applied to its library: stored in the same transaction as everything
+/// written before it, so the database never holds half a generation.
+#[derive(Clone, Debug)]
+pub struct StepCommit {
+    /// Run id.
+    pub run: i64,
+    /// The run's position after the step.
+    pub position: RunPosition,
+    /// The candidates applied, in order.
+    pub candidates: Vec<AppliedCandidate>,
+    /// The cells the step changed, with their new elites.
+    pub elites: Vec<(CellIndex, Elite)>,
+    /// The infeasible library's cells the step changed, with their new elites.
+    pub infeasible: Vec<(CellIndex, InfeasibleElite)>,
+    /// The generation the step completed, with its statistics (for the initial population
+    /// the placement counts are filled in from all its stored candidates).
+    pub completed: Option<(u32, GenerationStats)>,
+}
+
+impl StepCommit {
+    /// Whether the initial population is complete after this step.
+    pub fn initial_population_done(&self) -> bool {
+        self.position.generation > 0 || matches!(self.completed, Some((0, _)))
+    }
+
+    /// Whether this step removes a candidate's row from `pending`: applied candidates
+    /// leave the step, and so do the initial population's spare draws once it is complete.
+    pub fn clears(&self, number: CandidateNumber, generation: u32) -> bool {
+        number.0 < self.position.next_candidate
+            || (generation == 0 && self.initial_population_done())
+    }
+}
+
+/// One change to the database. The writer task commits them in order, in groups.
+///
+/// Only what a restart needs is written while a step is open: results, and leases lost to
+/// dead or silent workers (so attempts survive a restart). Waiting and leased candidates
+/// live in memory: they are redrawn or rebred, identically, after a restart.
+// Writes live for milliseconds on their way to the writer; boxing genomes would cost an
+// allocation each for nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum Write {
+    /// A candidate's result came in (or it failed for good).
+    Resolved {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Its generation.
+        generation: u32,
+        /// Leases it lost before.
+        attempts: u32,
+        /// Its outcome.
+        outcome: Outcome,
+        /// Worker session that sent it (none when it failed).
+        worker: Option<u64>,
+        /// Wall time the evaluation took.
+        seconds: f64,
+    },
+    /// A lease was lost (worker died, hung or disconnected); the candidate waits again.
+    LeaseLost {
+        /// Run id.
+        run: i64,
+        /// Candidate number.
+        number: CandidateNumber,
+        /// Its generation.
+        generation: u32,
+        /// Leases it has lost so far.
+        attempts: u32,
+        /// The worker session that lost it.
+        worker: u64,
+    },
+    /// A step was applied to the library.
+    Step(Box<StepCommit>),
+    /// A worker connected.
+    WorkerJoined {
+        /// Session id.
+        id: u64,
+        /// Its name.
+        name: String,
+        /// Its build.
+        build: String,
+        /// Candidates it holds at once.
+        slots: u32,
+    },
+    /// A worker disconnected.
+    WorkerLeft {
+        /// Session id.
+        id: u64,
+        /// Results it sent.
+        results: u64,
+        /// Why it left.
+        reason: String,
+    },
+}
+
+/// A candidate of a run's current step as stored: its result if one came in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredPending {
+    /// Run id.
+    pub run: i64,
+    /// Candidate number.
+    pub number: CandidateNumber,
+    /// Its generation.
+    pub generation: u32,
+    /// Leases lost so far.
+    pub attempts: u32,
+    /// Its outcome, once done (or failed).
+    pub outcome: Option<Outcome>,
+}

@@ -1,0 +1,164 @@
+//! `check`: an experiment file validated, its runs listed, and what it would cost on this
+//! machine (measured with the `simulator` feature, else estimated).
+
+use super::Exit;
+use std::num::NonZeroUsize;
+use std::path::PathBuf;
+use strider_common::Experiment;
+use strider_proto::process::default_threads;
+
+/// Arguments of `check`.
+#[derive(clap::Args)]
+pub struct CheckArgs {
+    /// Experiment file (TOML).
+    experiment: PathBuf,
+    /// Skip the second of full-length trials that measures this machine's speed (the
+    /// cost is then estimated from a figure measured on the development machine).
+    #[arg(long)]
+    no_calibration: bool,
+}
+
+/// A duration in hours, as a person reads it.
+fn hours_text(h: f64) -> String {
+    if h >= 1.0 {
+        format!("{h:.1} h")
+    } else {
+        format!("{:.0} min", (h * 60.0).ceil())
+    }
+}
+
+/// Prints what the experiment file defines and what it would cost here.
+pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
+    let (path, calibrate) = (args.experiment.as_path(), !args.no_calibration);
+    let e = Experiment::load(path)?;
+    let runs = e.runs();
+    outln!(
+        "experiment `{}`: {} runs; each {} initial designs, then {} generations of {} ({} offspring)",
+        e.name,
+        runs.len(),
+        e.run.initial_population,
+        e.run.generations,
+        e.run.offspring_per_generation,
+        e.offspring_per_run()
+    );
+    outln!(
+        "trial {} s at {} Hz control, physics step {:.5} s; brief: mass <= {} kg, height >= {} m, speed >= {} m/s, payload {} kg",
+        e.run.trial_seconds,
+        e.run.control_hz,
+        e.run.physics_dt(),
+        e.brief.max_mass,
+        e.brief.min_height,
+        e.brief.min_speed,
+        e.brief.payload
+    );
+    outln!(
+        "search: {}{}; a trial ends when the robot falls: tilt > {} degrees, body centre below {} of its start height{}",
+        e.search.constraints.name(),
+        match e.search.constraints {
+            strider_common::experiment::ConstraintHandling::FeasibleInfeasible => format!(
+                " (feasible and infeasible libraries, {} of parents from the feasible one, infeasible parents by tournament of {})",
+                e.search.feasible_parent_share, e.search.infeasible_tournament
+            ),
+            strider_common::experiment::ConstraintHandling::Reject => {
+                " (designs that miss the brief are dropped; the initial population is drawn until that many pass)".into()
+            }
+        },
+        e.trial.max_tilt_degrees,
+        e.trial.min_height_fraction,
+        if e.trial.only_feet_on_ground {
+            ", or a part other than a lower leg on the ground"
+        } else {
+            ""
+        }
+    );
+    if e.trial.upright_after_seconds > 0.0 {
+        outln!(
+            "after the trial the robot must stay up {} s more, its body within {} degrees of level",
+            e.trial.upright_after_seconds,
+            e.trial
+                .max_tilt_degrees
+                .min(e.trial.upright_after_max_tilt_degrees)
+        );
+    }
+    // What it costs: every trial (an ES candidate is many) at the cost of one that walks
+    // to its end, measured now on this machine, or else from MAX's measured trial on the
+    // development machine (BENCHMARKS.md: 0.124 ms a physics step on one core).
+    let per_run = u64::from(e.run.initial_population) + e.offspring_per_run();
+    let trials: u64 = runs
+        .iter()
+        .map(|r| match r.scheme {
+            strider_common::Scheme::Es => per_run * (u64::from(e.run.es_iterations) + 1),
+            _ => per_run,
+        })
+        .sum();
+    outln!(
+        "cost: {} candidates, at most {} trials (an ES candidate is {} trials){}",
+        per_run * runs.len() as u64,
+        trials,
+        e.run.es_iterations + 1,
+        match e.search.constraints {
+            strider_common::experiment::ConstraintHandling::Reject =>
+                ", plus the initial draws until enough meet the whole brief (unbounded)",
+            _ => "",
+        },
+    );
+    let cores = default_threads();
+    let (thread_seconds, upper, source) = match calibrate.then(|| measure(&e, cores, trials)) {
+        Some(Some(measured)) => measured,
+        not_measured => {
+            let steps = (e.run.trial_seconds + e.trial.upright_after_seconds) / e.run.physics_dt();
+            let per_trial = steps * 0.124e-3;
+            let why = match not_measured {
+                None => "--no-calibration",
+                _ => "this build has no simulator",
+            };
+            (
+                per_trial,
+                trials as f64 * per_trial / cores.get() as f64,
+                format!("from MAX's trial on the development machine; {why}"),
+            )
+        }
+    };
+    outln!(
+        "time on this machine's {} cores: at most {} ({:.1} ms of one core a trial that walks to its end, {source}); most trials end sooner in a fall or are settled without one: the whole runs in BENCHMARKS.md took a fifth to a half of this figure",
+        cores,
+        hours_text(upper / 3600.0),
+        thread_seconds * 1e3,
+    );
+    for r in runs {
+        outln!(
+            "  {:<7} repeat {:>3}  seed {}",
+            r.scheme,
+            r.repeat,
+            r.seed.0
+        );
+    }
+    Ok(Exit::Success)
+}
+
+/// A second of full-length MAX trials on every core: the thread-seconds a trial takes, the
+/// whole experiment's upper bound, and where the figure comes from.
+#[cfg(feature = "simulator")]
+fn measure(e: &Experiment, cores: NonZeroUsize, trials: u64) -> Option<(f64, f64, String)> {
+    let c = strider_worker::calibrate::calibrate(
+        &e.run,
+        &e.trial,
+        &e.brief,
+        cores,
+        std::time::Duration::from_secs(1),
+    );
+    Some((
+        c.thread_seconds_per_trial(),
+        c.upper_bound(trials),
+        format!(
+            "measured now: {} trials of MAX to their end in {:.1} s",
+            c.trials, c.wall_seconds
+        ),
+    ))
+}
+
+/// Without the simulator nothing can be measured.
+#[cfg(not(feature = "simulator"))]
+fn measure(_: &Experiment, _: NonZeroUsize, _: u64) -> Option<(f64, f64, String)> {
+    None
+}

@@ -1,0 +1,111 @@
+//! Opening a database for a command: to run or serve it (created when new, refused when it
+//! holds another experiment or is inconsistent), or to read it (read-only if need be).
+
+use crate::changes::RunRecord;
+use crate::db::{build_id, first_difference, Db};
+use anyhow::{bail, Context};
+use std::path::Path;
+use strider_common::Experiment;
+
+/// Opens the database, creating it with the given experiment (or, for `run`, the built-in
+/// quick one) when new; refuses an experiment that differs from the stored one.
+pub(super) async fn open_or_create(
+    file: Option<&Path>,
+    path: &Path,
+    quick_by_default: bool,
+) -> anyhow::Result<(Db, Experiment)> {
+    let given = match file {
+        Some(f) => Some(Experiment::load(f)?),
+        None => None,
+    };
+    if !path.exists() && given.is_none() && !quick_by_default {
+        bail!(
+            "no database at {}: pass --experiment FILE to start one",
+            path.display()
+        );
+    }
+    let db = Db::open_exclusive(path, true).await?;
+    let experiment = match db.experiment().await? {
+        Some((stored, build)) => {
+            if let Some(given) = &given {
+                if let Some(d) = first_difference(&stored, given) {
+                    bail!(
+                        "{} holds a different experiment ({d}); use another --db or the same file",
+                        path.display()
+                    );
+                }
+            }
+            let problems = db.inconsistencies(&stored).await?;
+            if !problems.is_empty() {
+                bail!(
+                    "{} is inconsistent, so it is not resumed from: {}. `strider-coordinator verify --db {}` says more; resume from a backup, or start again",
+                    path.display(),
+                    problems.join("; "),
+                    path.display()
+                );
+            }
+            if build != build_id() {
+                eprintln!("warning: {} was started by {build}; this is {}: trials are bit-identical only within one build", path.display(), build_id());
+            }
+            eprintln!(
+                "resuming experiment `{}` from {}",
+                stored.name,
+                path.display()
+            );
+            stored
+        }
+        None => {
+            let e = match given {
+                Some(e) => e,
+                None if quick_by_default => {
+                    Experiment::from_toml(include_str!("../../../experiments/quick.toml"))
+                        .expect("the built-in quick experiment is valid")
+                }
+                None => bail!(
+                    "{} holds no experiment: pass --experiment FILE to start one",
+                    path.display()
+                ),
+            };
+            db.create_experiment(&e).await?;
+            eprintln!("starting experiment `{}` in {}", e.name, path.display());
+            e
+        }
+    };
+    Ok((db, experiment))
+}
+
+/// Opens an existing database and its experiment, for reading.
+pub(super) async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment)> {
+    if !path.exists() {
+        bail!("no database at {}", path.display());
+    }
+    // A file this process may not write (a read-only mount, a backup kept read-only)
+    // fails the usual open (it migrates and sets the log mode): read it as it is.
+    let db = match Db::open(path, false).await {
+        Ok(db) => db,
+        Err(writable) => Db::open_read_only(path)
+            .await
+            .map_err(|read_only| anyhow::anyhow!("{writable}; read-only, {read_only}"))?,
+    };
+    let (experiment, _) = db
+        .experiment()
+        .await?
+        .context("the database holds no experiment")?;
+    Ok((db, experiment))
+}
+
+/// Every run of the database, or only `only` (which must exist).
+pub(super) async fn selected_runs(db: &Db, only: Option<i64>) -> anyhow::Result<Vec<RunRecord>> {
+    let runs: Vec<_> = db
+        .runs()
+        .await?
+        .into_iter()
+        .filter(|r| only.is_none_or(|id| r.id == id))
+        .collect();
+    if let Some(id) = only {
+        if runs.is_empty() {
+            bail!("the database has no run {id}");
+        }
+    }
+    Ok(runs)
+}

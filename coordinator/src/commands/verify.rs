@@ -1,0 +1,170 @@
+//! `verify`: a database checked against itself: every run replayed from its stored
+//! candidates, every row against its checksum, a sample simulated again (with the
+//! `simulator` feature).
+
+use super::open::open_existing;
+use super::Exit;
+use crate::db::{build_id, StoredCandidate};
+use std::collections::HashMap;
+use std::num::NonZeroUsize;
+use std::path::{Path, PathBuf};
+use strider_common::experiment::RunSpec;
+use strider_common::{Experiment, Outcome};
+
+/// Arguments of `verify`.
+#[derive(clap::Args)]
+pub struct VerifyArgs {
+    /// Database file (opened read-only; a copy or a backup will do).
+    #[arg(long)]
+    db: PathBuf,
+    /// Candidates to simulate again, spread evenly over the stored ones (0: none).
+    #[arg(long, default_value_t = 20)]
+    sample: usize,
+    /// Threads for the simulations (default: every core).
+    #[arg(long)]
+    workers: Option<NonZeroUsize>,
+}
+
+/// Replays, checks every row, simulates the sample again; says whether all agree.
+pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
+    let (path, sample) = (args.db.as_path(), args.sample);
+    let (db, experiment) = open_existing(path).await?;
+    let made_by = db.experiment().await?.map(|(_, build)| build);
+    let other_build = made_by.as_deref().filter(|b| *b != build_id());
+    if let Some(b) = other_build {
+        eprintln!(
+            "warning: {} was made by {b}; this is {}: breeding and trials are bit-identical only within one build, so differences below may be the build's, not damage",
+            path.display(),
+            build_id()
+        );
+    }
+    let runs = db.runs().await?;
+    let candidates = db.candidates().await?;
+    let mut verdict = crate::verify::replay(&experiment, &runs, &candidates);
+    outln!(
+        "replayed {} of {} stored candidates over {} runs",
+        verdict.replayed,
+        candidates.len(),
+        runs.len()
+    );
+    // Every row against its checksum: damage that leaves the replay agreeing (an
+    // outcome's figure that no placement depends on) still shows here.
+    let damaged = db.checksum_mismatches(false).await?;
+    outln!(
+        "checked every candidate row against its checksum: {} damaged",
+        damaged.len()
+    );
+    verdict.problems.extend(crate::db::damaged_rows(&damaged));
+    // Every k-th stored candidate whose outcome a worker computed (a candidate that
+    // failed for want of a worker has nothing to reproduce).
+    let eligible: Vec<&StoredCandidate> = candidates
+        .iter()
+        .filter(|c| {
+            !matches!(
+                c.outcome,
+                Outcome::Invalid {
+                    reason: strider_common::InvalidReason::EvaluationFailed { .. },
+                    ..
+                }
+            )
+        })
+        .collect();
+    let chosen: Vec<&StoredCandidate> = if sample == 0 || eligible.is_empty() {
+        Vec::new()
+    } else {
+        let step = (eligible.len() as f64 / sample as f64).max(1.0);
+        (0..sample.min(eligible.len()))
+            .map(|i| eligible[(i as f64 * step) as usize])
+            .collect()
+    };
+    if !chosen.is_empty() {
+        let spec_of: HashMap<i64, RunSpec> = runs.iter().map(|r| (r.id, r.spec)).collect();
+        // Candidates of no run were reported by the replay; the rest, paired with their jobs.
+        let chosen: Vec<_> = chosen
+            .into_iter()
+            .filter_map(|c| spec_of.get(&c.run).map(|spec| (c, *spec)))
+            .collect();
+        let Some(outcomes) = simulate_again(&experiment, &chosen, args.workers).await? else {
+            eprintln!(
+                "warning: {} stored candidates not simulated again: this strider-coordinator was built without the simulator (cargo feature `simulator`)",
+                chosen.len()
+            );
+            return conclude(path, &verdict.problems);
+        };
+        let mut differ = 0;
+        for ((c, _), o) in chosen.iter().zip(&outcomes) {
+            let stored = serde_json::to_string(&c.outcome)?;
+            let again = serde_json::to_string(o)?;
+            if stored != again {
+                differ += 1;
+                if differ <= 5 {
+                    verdict.problems.push(format!(
+                        "run id {} candidate {}: simulated again it gives {again}, the database holds {stored}",
+                        c.run, c.number.0
+                    ));
+                }
+            }
+        }
+        outln!(
+            "simulated {} stored candidates again: {} identical, {differ} different",
+            chosen.len(),
+            chosen.len() - differ
+        );
+    }
+    conclude(path, &verdict.problems)
+}
+
+/// Prints the verdict.
+fn conclude(path: &Path, problems: &[String]) -> anyhow::Result<Exit> {
+    if problems.is_empty() {
+        outln!("{} agrees with itself", path.display());
+        Ok(Exit::Success)
+    } else {
+        for p in problems {
+            outln!("problem: {p}");
+        }
+        eprintln!(
+            "error: {} does not agree with itself ({} problems above); resume from a backup, or start the experiment again",
+            path.display(),
+            problems.len()
+        );
+        Ok(Exit::Disagrees)
+    }
+}
+
+/// The outcomes of the chosen candidates simulated again on this machine, in order.
+#[cfg(feature = "simulator")]
+async fn simulate_again(
+    experiment: &Experiment,
+    chosen: &[(&StoredCandidate, RunSpec)],
+    workers: Option<NonZeroUsize>,
+) -> anyhow::Result<Option<Vec<Outcome>>> {
+    use anyhow::Context;
+    use strider_common::rng::CandidateSeed;
+    use strider_common::EvalContext;
+    use strider_worker::batch::{evaluate_batch, Job};
+    let jobs: Vec<Job> = chosen
+        .iter()
+        .map(|(c, spec)| Job {
+            genome: c.genome,
+            scheme: spec.scheme,
+            seed: CandidateSeed::new(spec.seed.0, c.number.0),
+        })
+        .collect();
+    let ctx = EvalContext::of(experiment);
+    let threads = workers.unwrap_or_else(strider_proto::process::default_threads);
+    let outcomes = tokio::task::spawn_blocking(move || evaluate_batch(&ctx, &jobs, threads))
+        .await
+        .context("simulating the sample")?;
+    Ok(Some(outcomes))
+}
+
+/// Without the simulator: none.
+#[cfg(not(feature = "simulator"))]
+async fn simulate_again(
+    _: &Experiment,
+    _: &[(&StoredCandidate, RunSpec)],
+    _: Option<NonZeroUsize>,
+) -> anyhow::Result<Option<Vec<Outcome>>> {
+    Ok(None)
+}

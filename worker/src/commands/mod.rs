@@ -1,0 +1,106 @@
+//! The command line of `strider-worker`: its arguments and one module per command. With
+//! no command it works for a coordinator ([`connect`]). `main` parses, calls [`execute`]
+//! and turns the outcome into an exit status.
+
+/// Writes a line to standard output and returns from the command on an error: a reader that
+/// closed the pipe early (`| head`) ends the command quietly (`closed_pipe` in `main`).
+macro_rules! outln {
+    ($($t:tt)*) => { {
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*)?
+    } };
+}
+
+/// [`outln`] without the newline.
+macro_rules! out {
+    ($($t:tt)*) => { {
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($t)*)?
+    } };
+}
+
+pub mod connect;
+pub mod eval;
+pub mod inspect;
+pub mod random;
+pub mod survey;
+pub mod urdf;
+
+use clap::{Parser, Subcommand};
+use std::path::Path;
+use strider_common::{EvalContext, Experiment};
+
+/// `strider-worker`'s arguments.
+#[derive(Parser)]
+#[command(
+    name = "strider-worker",
+    version,
+    about = "Strider worker: evaluates robot designs"
+)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    /// A command; none to work for a coordinator.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// Working for a coordinator.
+    #[command(flatten)]
+    pub connect: connect::ConnectArgs,
+}
+
+/// The commands.
+#[derive(Subcommand)]
+pub enum Command {
+    /// Simulate one genome and print its outcome.
+    Eval(eval::EvalArgs),
+    /// Print a genome's masses, start-pose height, features, cell and static brief checks.
+    Inspect(inspect::InspectArgs),
+    /// Write a genome's design as URDF (links with masses and inertias, revolute joints with
+    /// axes and the motors' limits), for ROS, Gazebo, PyBullet or MuJoCo's importer.
+    Urdf(urdf::UrdfArgs),
+    /// Print the genome's parameter table (Markdown): names, ranges, units, groups.
+    Params,
+    /// Print the random genome a run draws as candidate N (JSON).
+    Random(random::RandomArgs),
+    /// Evaluate random genomes and report how often each constraint of the brief fails.
+    Survey(survey::SurveyArgs),
+}
+
+/// Runs the command, or works for a coordinator when there is none.
+pub fn execute(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        None => connect::execute(cli.connect),
+        Some(Command::Eval(args)) => eval::execute(args),
+        Some(Command::Inspect(args)) => inspect::execute(args),
+        Some(Command::Urdf(args)) => urdf::execute(args),
+        Some(Command::Params) => {
+            out!("{}", strider_common::params::markdown_table());
+            Ok(())
+        }
+        Some(Command::Random(args)) => random::execute(args),
+        Some(Command::Survey(args)) => survey::execute(args),
+    }
+}
+
+/// The evaluation context of an experiment file, or the paper's.
+fn context(experiment: Option<&Path>) -> anyhow::Result<EvalContext> {
+    Ok(match experiment {
+        Some(path) => EvalContext::of(&Experiment::load(path)?),
+        None => EvalContext::paper(),
+    })
+}
+
+/// Prints a report as pretty JSON or as its table.
+fn emit<T: serde::Serialize + std::fmt::Display>(report: &T, json: bool) -> anyhow::Result<()> {
+    if json {
+        outln!(
+            "{}",
+            anyhow::Context::context(
+                serde_json::to_string_pretty(report),
+                "serialising the report"
+            )?
+        );
+    } else {
+        outln!("{report}");
+    }
+    Ok(())
+}

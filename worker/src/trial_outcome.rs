@@ -1,0 +1,78 @@
+//! One morphology with one controller: the checks made before a trial, the trial, the
+//! speed check and the fitness; what every scheme is built from.
+
+use crate::sim::trial::{run_trial_from, Observer, TrialEnd};
+use strider_common::precheck::check_before_trial;
+use strider_common::{
+    BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, StartPose,
+};
+
+/// Evaluates one morphology with one controller: static checks, trial, speed check.
+pub fn evaluate_controller(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    observer: &mut impl Observer,
+) -> Outcome {
+    let pose = StartPose::new(plan, controller);
+    // A design that cannot meet the brief, or starts with parts touching, is not simulated.
+    if let Some(outcome) = check_before_trial(ctx, plan, &pose, controller) {
+        return outcome;
+    }
+    let stats = match run_trial_from(
+        plan,
+        &pose,
+        controller,
+        &ctx.settings,
+        &ctx.limits,
+        observer,
+    ) {
+        TrialEnd::Completed(stats) => stats,
+        TrialEnd::Stopped { reason, at_time } => {
+            return Outcome::Invalid {
+                reason,
+                at_time,
+                controller: *controller,
+            }
+        }
+    };
+    if stats.distance <= 0.0 {
+        return Outcome::Invalid {
+            reason: InvalidReason::NoForwardProgress {
+                distance: stats.distance,
+            },
+            at_time: stats.duration,
+            controller: *controller,
+        };
+    }
+    if let Some(v) = ctx.brief.check_speed(stats.speed) {
+        return Outcome::Rejected {
+            violations: vec![v],
+            stats: Some(stats),
+            controller: *controller,
+        };
+    }
+    let fitness = 1.0 / stats.cost_of_transport;
+    if !fitness.is_finite() {
+        return Outcome::Invalid {
+            reason: InvalidReason::NonFinite {
+                what: "fitness".into(),
+            },
+            at_time: stats.duration,
+            controller: *controller,
+        };
+    }
+    let features = Features::of(&genome.morphology, plan);
+    let cell = ctx
+        .grid
+        .cell_of(&features)
+        .expect("features of a valid genome are finite");
+    Outcome::Valid {
+        fitness,
+        stats,
+        features,
+        cell,
+        controller: *controller,
+    }
+}
