@@ -83,6 +83,33 @@ pub enum Placement {
     Invalid,
 }
 
+impl Placement {
+    /// Every placement.
+    pub const ALL: [Placement; 5] = [
+        Placement::New,
+        Placement::Improved,
+        Placement::Discarded,
+        Placement::Rejected,
+        Placement::Invalid,
+    ];
+
+    /// Its name in the database.
+    pub fn name(self) -> &'static str {
+        match self {
+            Placement::New => "new",
+            Placement::Improved => "improved",
+            Placement::Discarded => "discarded",
+            Placement::Rejected => "rejected",
+            Placement::Invalid => "invalid",
+        }
+    }
+
+    /// The placement called `name`; `None` for any other text.
+    pub fn named(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
 /// Statistics of the library after a generation, and what the generation did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GenerationStats {

@@ -237,3 +237,16 @@ fn genome_scheme_offspring_evolve_their_controller() {
     .unwrap();
     assert_eq!(child.controller, parent.controller);
 }
+
+#[test]
+fn every_placement_has_one_stored_name_and_other_text_names_none() {
+    use strider_coordinator::library::InfeasiblePlacement;
+    for p in Placement::ALL {
+        assert_eq!(Placement::named(p.name()), Some(p));
+    }
+    let names: std::collections::HashSet<_> = Placement::ALL.iter().map(|p| p.name()).collect();
+    assert_eq!(names.len(), Placement::ALL.len());
+    assert_eq!(Placement::named("bogus"), None);
+    assert_eq!(Placement::named("Invalid"), None);
+    assert_eq!(InfeasiblePlacement::named("rejected"), None);
+}

@@ -37,7 +37,10 @@ fn a_coordinator_built_without_the_simulator_links_no_physics_engine() {
     let head_node = names(&head_node);
     assert!(head_node.contains(&"tonic"), "{head_node:?}");
     for crate_name in ["rapier3d", "strider-worker", "parry3d"] {
-        assert!(!head_node.contains(&crate_name), "{crate_name} in {head_node:?}");
+        assert!(
+            !head_node.contains(&crate_name),
+            "{crate_name} in {head_node:?}"
+        );
     }
     // The default build embeds the evaluator for `run`.
     let default = coordinator_tree(true);

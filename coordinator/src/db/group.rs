@@ -5,9 +5,9 @@
 //! the service's bottleneck).
 
 use super::checksum::CandidateColumns;
-use super::{placement_name, standing_figure, Db, DbError};
+use super::{standing_figure, Db, DbError};
 use crate::changes::{RunPosition, StepCommit, Write};
-use crate::library::GenerationStats;
+use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
 use sqlx::Row;
 use std::collections::HashMap;
 use strider_common::{InvalidReason, Outcome};
@@ -174,7 +174,7 @@ fn step_rows(step: &StepCommit) -> StepRows {
                     kind: c.outcome.kind(),
                     fitness,
                     cell,
-                    placement: placement_name(c.placement),
+                    placement: c.placement.name(),
                     shortfall: c.outcome.shortfall().map(|s| s.name()),
                     standing: c
                         .outcome
@@ -368,6 +368,13 @@ async fn write_worker(
 }
 
 /// A step: its candidates, the cells it changed, its statistics, the run's new position.
+/// A stored placement that names none: the database was written by something else.
+fn unknown_placement(run: i64, name: &str) -> DbError {
+    DbError::Corrupt(format!(
+        "run {run}: a candidate's placement is `{name}`, which names no placement"
+    ))
+}
+
 async fn write_step(
     tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
     step: &StepRows,
@@ -422,30 +429,34 @@ async fn write_step(
     }
     if let Some((generation, mut stats)) = step.completed {
         if generation == 0 {
-            for r in sqlx::query("SELECT infeasible_placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 AND infeasible_placement IS NOT NULL GROUP BY infeasible_placement")
+            for r in sqlx::query("SELECT infeasible_placement AS placement, COUNT(*) AS n FROM candidates WHERE run_id = ? AND generation = 0 AND infeasible_placement IS NOT NULL GROUP BY infeasible_placement")
                 .bind(run)
                 .fetch_all(&mut **tx)
                 .await?
             {
-                let n = r.get::<i64, _>(1) as usize;
-                match r.get::<String, _>(0).as_str() {
-                    "new" => stats.infeasible_new = n,
-                    "improved" => stats.infeasible_improved = n,
-                    _ => {}
+                let n = r.get::<i64, _>("n") as usize;
+                let name: String = r.get("placement");
+                match InfeasiblePlacement::named(&name) {
+                    Some(InfeasiblePlacement::New) => stats.infeasible_new = n,
+                    Some(InfeasiblePlacement::Improved) => stats.infeasible_improved = n,
+                    Some(InfeasiblePlacement::Discarded) => {}
+                    None => return Err(unknown_placement(run, &name)),
                 }
             }
-            for r in sqlx::query("SELECT placement, COUNT(*) FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
+            for r in sqlx::query("SELECT placement, COUNT(*) AS n FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
                 .bind(run)
                 .fetch_all(&mut **tx)
                 .await?
             {
-                let n = r.get::<i64, _>(1) as usize;
-                match r.get::<String, _>(0).as_str() {
-                    "new" => stats.new = n,
-                    "improved" => stats.improved = n,
-                    "discarded" => stats.discarded = n,
-                    "rejected" => stats.rejected = n,
-                    _ => stats.invalid = n,
+                let n = r.get::<i64, _>("n") as usize;
+                let name: String = r.get("placement");
+                match Placement::named(&name) {
+                    Some(Placement::New) => stats.new = n,
+                    Some(Placement::Improved) => stats.improved = n,
+                    Some(Placement::Discarded) => stats.discarded = n,
+                    Some(Placement::Rejected) => stats.rejected = n,
+                    Some(Placement::Invalid) => stats.invalid = n,
+                    None => return Err(unknown_placement(run, &name)),
                 }
             }
         }

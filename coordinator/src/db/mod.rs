@@ -5,21 +5,19 @@
 
 pub mod checksum;
 mod group;
+mod rows;
 
 pub use group::PreparedGroup;
 
-use crate::library::{
-    Elite, GenerationStats, InfeasibleElite, InfeasibleLibrary, Library, Placement,
-};
+use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
 use sqlx::Row;
 use std::path::Path;
 use std::str::FromStr;
-use strider_common::experiment::RunSpec;
-use strider_common::rng::{CandidateNumber, RunSeed};
-use strider_common::{CellIndex, Experiment, Genome, Outcome, Scheme, Shortfall, Standing};
+use strider_common::rng::CandidateNumber;
+use strider_common::{CellIndex, Experiment, Genome, Outcome, Shortfall, Standing};
 
 /// A database problem, with what was being done.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +50,11 @@ pub enum DbError {
 pub use strider_common::build_id;
 
 use crate::changes::{RunRecord, StoredPending};
+use rows::{
+    EliteRow, EliteWithOutcomeRow, GenerationRow, InfeasibleRow, InfeasibleWithOutcomeRow,
+    PendingRow, RunRow,
+};
+use std::collections::HashMap;
 
 /// An applied candidate as stored (the `candidates` table).
 #[derive(Clone, Debug, PartialEq)]
@@ -201,16 +204,6 @@ pub fn standing_figure(s: Standing) -> Option<f64> {
     }
 }
 
-fn placement_name(p: Placement) -> &'static str {
-    match p {
-        Placement::New => "new",
-        Placement::Improved => "improved",
-        Placement::Discarded => "discarded",
-        Placement::Rejected => "rejected",
-        Placement::Invalid => "invalid",
-    }
-}
-
 impl Db {
     /// Opens a database to write it, as its only writer: refuses while another process
     /// holds it ([`DbError::Locked`], naming the holder), then opens (creating if asked)
@@ -308,10 +301,10 @@ impl Db {
             .fetch_optional(&self.pool)
             .await?;
         row.map(|r| {
-            let text: String = r.get(0);
+            let text: String = r.get("definition");
             let e = Experiment::from_toml(&text)
                 .map_err(|e| DbError::Corrupt(format!("stored experiment: {e}")))?;
-            Ok((e, r.get(1)))
+            Ok((e, r.get("build")))
         })
         .transpose()
     }
@@ -340,86 +333,59 @@ impl Db {
 
     /// Every run with its library, rebuilt from the elites table.
     pub async fn runs(&self) -> Result<Vec<RunRecord>, DbError> {
-        let rows = sqlx::query("SELECT id, scheme, repeat, seed, generation, initial_passed, next_candidate, finished FROM runs ORDER BY id")
+        // Three queries whatever the number of runs: runs, elites, infeasible elites.
+        let runs: Vec<RunRow> = sqlx::query_as("SELECT id, scheme, repeat, seed, generation, initial_passed, next_candidate, finished FROM runs ORDER BY id")
             .fetch_all(&self.pool)
             .await?;
-        let mut out = Vec::with_capacity(rows.len());
-        for r in rows {
-            let id: i64 = r.get(0);
-            let scheme: String = r.get(1);
-            let mut library = Library::new();
-            for e in sqlx::query("SELECT cell, candidate, fitness, genome FROM elites WHERE run_id = ? ORDER BY cell")
-                .bind(id)
-                .fetch_all(&self.pool)
-                .await?
-            {
-                let genome: String = e.get(3);
-                let genome: Genome = serde_json::from_str(&genome).map_err(|x| DbError::Corrupt(format!("elite genome of run {id}: {x}")))?;
-                library.restore(
-                    CellIndex(e.get::<i64, _>(0) as u32),
-                    Elite { candidate: CandidateNumber(e.get::<i64, _>(1) as u64), genome, fitness: e.get(2) },
-                );
-            }
-            let mut infeasible = InfeasibleLibrary::default();
-            for e in sqlx::query("SELECT cell, candidate, shortfall, standing, genome FROM infeasible_elites WHERE run_id = ? ORDER BY cell")
-                .bind(id)
-                .fetch_all(&self.pool)
-                .await?
-            {
-                let corrupt = |what: String| DbError::Corrupt(format!("infeasible elite of run {id}: {what}"));
-                let genome: String = e.get(4);
-                let shortfall: String = e.get(2);
-                let shortfall = Shortfall::named(&shortfall).ok_or_else(|| corrupt(format!("unknown shortfall `{shortfall}`")))?;
-                infeasible.restore(
-                    CellIndex(e.get::<i64, _>(0) as u32),
-                    InfeasibleElite {
-                        candidate: CandidateNumber(e.get::<i64, _>(1) as u64),
-                        genome: serde_json::from_str(&genome).map_err(|x| corrupt(x.to_string()))?,
-                        standing: standing_of(shortfall, e.get(3)),
-                        shortfall,
-                    },
-                );
-            }
+        let mut out = Vec::with_capacity(runs.len());
+        let mut index = HashMap::with_capacity(runs.len());
+        for r in runs {
+            index.insert(r.id, out.len());
             out.push(RunRecord {
-                id,
-                infeasible,
-                spec: RunSpec {
-                    scheme: Scheme::from_str(&scheme).map_err(DbError::Corrupt)?,
-                    repeat: r.get::<i64, _>(2) as u32,
-                    seed: RunSeed(r.get::<i64, _>(3) as u64),
-                },
-                generation: r.get::<i64, _>(4) as u32,
-                initial_passed: r.get::<i64, _>(5) as u32,
-                next_candidate: r.get::<i64, _>(6) as u64,
-                finished: r.get::<i64, _>(7) != 0,
-                library,
+                id: r.id,
+                spec: r.spec()?,
+                generation: r.generation as u32,
+                initial_passed: r.initial_passed as u32,
+                next_candidate: r.next_candidate as u64,
+                finished: r.finished != 0,
+                library: Library::new(),
+                infeasible: InfeasibleLibrary::default(),
             });
+        }
+        let run_of = |id: i64| {
+            index.get(&id).copied().ok_or_else(|| {
+                DbError::Corrupt(format!("an elite of run {id}, which does not exist"))
+            })
+        };
+        let elites: Vec<EliteRow> = sqlx::query_as(
+            "SELECT run_id, cell, candidate, fitness, genome FROM elites ORDER BY run_id, cell",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        for e in elites {
+            let run = run_of(e.run_id)?;
+            let (cell, elite) = e.elite()?;
+            out[run].library.restore(cell, elite);
+        }
+        let infeasible: Vec<InfeasibleRow> = sqlx::query_as("SELECT run_id, cell, candidate, shortfall, standing, genome FROM infeasible_elites ORDER BY run_id, cell")
+            .fetch_all(&self.pool)
+            .await?;
+        for e in infeasible {
+            let run = run_of(e.run_id)?;
+            let (cell, elite) = e.elite()?;
+            out[run].infeasible.restore(cell, elite);
         }
         Ok(out)
     }
 
     /// Every stored candidate of the runs' current steps.
     pub async fn pending(&self) -> Result<Vec<StoredPending>, DbError> {
-        let rows = sqlx::query(
+        let rows: Vec<PendingRow> = sqlx::query_as(
             "SELECT run_id, number, attempts, outcome, generation FROM pending ORDER BY run_id, number",
         )
         .fetch_all(&self.pool)
         .await?;
-        rows.iter()
-            .map(|r| {
-                let outcome: Option<String> = r.get(3);
-                Ok(StoredPending {
-                    run: r.get(0),
-                    number: CandidateNumber(r.get::<i64, _>(1) as u64),
-                    attempts: r.get::<i64, _>(2) as u32,
-                    generation: r.get::<i64, _>(4) as u32,
-                    outcome: outcome
-                        .map(|o| serde_json::from_str(&o))
-                        .transpose()
-                        .map_err(|e| DbError::Corrupt(format!("pending outcome: {e}")))?,
-                })
-            })
-            .collect()
+        rows.into_iter().map(StoredPending::try_from).collect()
     }
 
     /// What is inconsistent in the stored state, by cheap queries run on every resume
@@ -599,7 +565,7 @@ impl Db {
         offset: u64,
         limit: u32,
     ) -> Result<Vec<StoredElite>, DbError> {
-        let rows = sqlx::query(
+        let rows: Vec<EliteWithOutcomeRow> = sqlx::query_as(
             "SELECT e.run_id, e.cell, e.candidate, e.fitness, e.genome, c.outcome FROM elites e \
              JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
              WHERE (?1 IS NULL OR e.run_id = ?1) AND (?2 IS NULL OR e.cell = ?2) AND (?3 IS NULL OR e.fitness >= ?3) \
@@ -612,51 +578,20 @@ impl Db {
         .bind(offset as i64)
         .fetch_all(&self.pool)
         .await?;
-        rows.iter()
-            .map(|r| {
-                let genome: String = r.get(4);
-                let outcome: String = r.get(5);
-                Ok(StoredElite {
-                    run: r.get(0),
-                    cell: CellIndex(r.get::<i64, _>(1) as u32),
-                    candidate: CandidateNumber(r.get::<i64, _>(2) as u64),
-                    fitness: r.get(3),
-                    genome: serde_json::from_str(&genome)
-                        .map_err(|e| DbError::Corrupt(format!("elite genome: {e}")))?,
-                    outcome: serde_json::from_str(&outcome)
-                        .map_err(|e| DbError::Corrupt(format!("elite outcome: {e}")))?,
-                })
-            })
-            .collect()
+        rows.into_iter().map(StoredElite::try_from).collect()
     }
 
     /// A run's infeasible library in cell order, with each elite's outcome.
     pub async fn list_infeasible(&self, run_id: i64) -> Result<Vec<StoredInfeasible>, DbError> {
-        let rows = sqlx::query(
-            "SELECT e.cell, e.candidate, e.shortfall, e.standing, e.genome, c.outcome FROM infeasible_elites e \
+        let rows: Vec<InfeasibleWithOutcomeRow> = sqlx::query_as(
+            "SELECT e.run_id, e.cell, e.candidate, e.shortfall, e.standing, e.genome, c.outcome FROM infeasible_elites e \
              JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
              WHERE e.run_id = ? ORDER BY e.cell",
         )
         .bind(run_id)
         .fetch_all(&self.pool)
         .await?;
-        rows.iter()
-            .map(|r| {
-                let corrupt = |what: String| DbError::Corrupt(format!("infeasible elite: {what}"));
-                let shortfall: String = r.get(2);
-                let genome: String = r.get(4);
-                let outcome: String = r.get(5);
-                Ok(StoredInfeasible {
-                    cell: CellIndex(r.get::<i64, _>(0) as u32),
-                    candidate: CandidateNumber(r.get::<i64, _>(1) as u64),
-                    shortfall: Shortfall::named(&shortfall)
-                        .ok_or_else(|| corrupt(format!("unknown shortfall `{shortfall}`")))?,
-                    standing: r.get(3),
-                    genome: serde_json::from_str(&genome).map_err(|e| corrupt(e.to_string()))?,
-                    outcome: serde_json::from_str(&outcome).map_err(|e| corrupt(e.to_string()))?,
-                })
-            })
-            .collect()
+        rows.into_iter().map(StoredInfeasible::try_from).collect()
     }
 
     /// Per-generation statistics of a run, in order.
@@ -664,37 +599,11 @@ impl Db {
         &self,
         run_id: i64,
     ) -> Result<Vec<(u32, u64, GenerationStats)>, DbError> {
-        let rows = sqlx::query("SELECT generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved FROM generations WHERE run_id = ? ORDER BY generation")
+        let rows: Vec<GenerationRow> = sqlx::query_as("SELECT generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved FROM generations WHERE run_id = ? ORDER BY generation")
             .bind(run_id)
             .fetch_all(&self.pool)
             .await?;
-        Ok(rows
-            .iter()
-            .map(|r| {
-                let n = |i: usize| r.get::<i64, _>(i) as usize;
-                (
-                    r.get::<i64, _>(0) as u32,
-                    r.get::<i64, _>(1) as u64,
-                    GenerationStats {
-                        coverage: r.get(2),
-                        elites: n(3),
-                        max_fitness: r.get(4),
-                        mean_fitness: r.get(5),
-                        min_fitness: r.get(6),
-                        qd_score: r.get(7),
-                        new: n(8),
-                        improved: n(9),
-                        discarded: n(10),
-                        rejected: n(11),
-                        invalid: n(12),
-                        infeasible_elites: n(13),
-                        infeasible_only: n(14),
-                        infeasible_new: n(15),
-                        infeasible_improved: n(16),
-                    },
-                )
-            })
-            .collect())
+        Ok(rows.into_iter().map(Into::into).collect())
     }
 
     /// Copies committed pages from the write-ahead log into the database file without

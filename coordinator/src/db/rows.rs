@@ -1,0 +1,224 @@
+//! Rows as the tables hold them, decoded by column name (a query's column order can change
+//! without a silent mix-up), and their conversion to the model's types, which refuses text
+//! that names nothing.
+
+use super::{standing_of, DbError, StoredElite, StoredInfeasible};
+use crate::changes::StoredPending;
+use crate::library::{Elite, GenerationStats, InfeasibleElite};
+use strider_common::experiment::RunSpec;
+use strider_common::rng::{CandidateNumber, RunSeed};
+use strider_common::{CellIndex, Genome, Outcome, Scheme, Shortfall};
+
+/// A `runs` row.
+#[derive(sqlx::FromRow)]
+pub(super) struct RunRow {
+    pub id: i64,
+    pub scheme: String,
+    pub repeat: i64,
+    pub seed: i64,
+    pub generation: i64,
+    pub initial_passed: i64,
+    pub next_candidate: i64,
+    pub finished: i64,
+}
+
+impl RunRow {
+    /// Its scheme, repeat and seed.
+    pub fn spec(&self) -> Result<RunSpec, DbError> {
+        Ok(RunSpec {
+            scheme: self.scheme.parse::<Scheme>().map_err(DbError::Corrupt)?,
+            repeat: self.repeat as u32,
+            seed: RunSeed(self.seed as u64),
+        })
+    }
+}
+
+/// An `elites` row.
+#[derive(sqlx::FromRow)]
+pub(super) struct EliteRow {
+    pub run_id: i64,
+    pub cell: i64,
+    pub candidate: i64,
+    pub fitness: f64,
+    pub genome: String,
+}
+
+impl EliteRow {
+    /// Its cell and elite.
+    pub fn elite(self) -> Result<(CellIndex, Elite), DbError> {
+        let genome: Genome = serde_json::from_str(&self.genome)
+            .map_err(|x| DbError::Corrupt(format!("elite genome of run {}: {x}", self.run_id)))?;
+        Ok((
+            CellIndex(self.cell as u32),
+            Elite {
+                candidate: CandidateNumber(self.candidate as u64),
+                genome,
+                fitness: self.fitness,
+            },
+        ))
+    }
+}
+
+/// An `infeasible_elites` row.
+#[derive(sqlx::FromRow)]
+pub(super) struct InfeasibleRow {
+    pub run_id: i64,
+    pub cell: i64,
+    pub candidate: i64,
+    pub shortfall: String,
+    pub standing: f64,
+    pub genome: String,
+}
+
+impl InfeasibleRow {
+    /// Its cell and elite.
+    pub fn elite(self) -> Result<(CellIndex, InfeasibleElite), DbError> {
+        let run = self.run_id;
+        let corrupt =
+            |what: String| DbError::Corrupt(format!("infeasible elite of run {run}: {what}"));
+        let shortfall = shortfall(&self.shortfall).map_err(corrupt)?;
+        Ok((
+            CellIndex(self.cell as u32),
+            InfeasibleElite {
+                candidate: CandidateNumber(self.candidate as u64),
+                genome: serde_json::from_str(&self.genome).map_err(|x| corrupt(x.to_string()))?,
+                standing: standing_of(shortfall, self.standing),
+                shortfall,
+            },
+        ))
+    }
+}
+
+/// The shortfall a stored name names.
+pub(super) fn shortfall(name: &str) -> Result<Shortfall, String> {
+    Shortfall::named(name).ok_or_else(|| format!("unknown shortfall `{name}`"))
+}
+
+/// A `pending` row.
+#[derive(sqlx::FromRow)]
+pub(super) struct PendingRow {
+    pub run_id: i64,
+    pub number: i64,
+    pub generation: i64,
+    pub attempts: i64,
+    pub outcome: Option<String>,
+}
+
+impl TryFrom<PendingRow> for StoredPending {
+    type Error = DbError;
+
+    fn try_from(r: PendingRow) -> Result<Self, DbError> {
+        Ok(StoredPending {
+            run: r.run_id,
+            number: CandidateNumber(r.number as u64),
+            attempts: r.attempts as u32,
+            generation: r.generation as u32,
+            outcome: r
+                .outcome
+                .map(|o| serde_json::from_str::<Outcome>(&o))
+                .transpose()
+                .map_err(|e| DbError::Corrupt(format!("pending outcome: {e}")))?,
+        })
+    }
+}
+
+/// A `generations` row.
+#[derive(sqlx::FromRow)]
+pub(super) struct GenerationRow {
+    pub generation: i64,
+    pub evaluations: i64,
+    pub coverage: f64,
+    pub elites: i64,
+    pub max_fitness: f64,
+    pub mean_fitness: f64,
+    pub min_fitness: f64,
+    pub qd_score: f64,
+    pub new: i64,
+    pub improved: i64,
+    pub discarded: i64,
+    pub rejected: i64,
+    pub invalid: i64,
+    pub infeasible_elites: i64,
+    pub infeasible_only: i64,
+    pub infeasible_new: i64,
+    pub infeasible_improved: i64,
+}
+
+impl From<GenerationRow> for (u32, u64, GenerationStats) {
+    fn from(r: GenerationRow) -> Self {
+        let n = |v: i64| v as usize;
+        (
+            r.generation as u32,
+            r.evaluations as u64,
+            GenerationStats {
+                coverage: r.coverage,
+                elites: n(r.elites),
+                max_fitness: r.max_fitness,
+                mean_fitness: r.mean_fitness,
+                min_fitness: r.min_fitness,
+                qd_score: r.qd_score,
+                new: n(r.new),
+                improved: n(r.improved),
+                discarded: n(r.discarded),
+                rejected: n(r.rejected),
+                invalid: n(r.invalid),
+                infeasible_elites: n(r.infeasible_elites),
+                infeasible_only: n(r.infeasible_only),
+                infeasible_new: n(r.infeasible_new),
+                infeasible_improved: n(r.infeasible_improved),
+            },
+        )
+    }
+}
+
+/// An `elites` row joined with its candidate's outcome.
+#[derive(sqlx::FromRow)]
+pub(super) struct EliteWithOutcomeRow {
+    #[sqlx(flatten)]
+    pub elite: EliteRow,
+    pub outcome: String,
+}
+
+impl TryFrom<EliteWithOutcomeRow> for StoredElite {
+    type Error = DbError;
+
+    fn try_from(r: EliteWithOutcomeRow) -> Result<Self, DbError> {
+        let run = r.elite.run_id;
+        let (cell, elite) = r.elite.elite()?;
+        Ok(StoredElite {
+            run,
+            cell,
+            candidate: elite.candidate,
+            fitness: elite.fitness,
+            genome: elite.genome,
+            outcome: serde_json::from_str(&r.outcome)
+                .map_err(|e| DbError::Corrupt(format!("elite outcome: {e}")))?,
+        })
+    }
+}
+
+/// An `infeasible_elites` row joined with its candidate's outcome.
+#[derive(sqlx::FromRow)]
+pub(super) struct InfeasibleWithOutcomeRow {
+    #[sqlx(flatten)]
+    pub elite: InfeasibleRow,
+    pub outcome: String,
+}
+
+impl TryFrom<InfeasibleWithOutcomeRow> for StoredInfeasible {
+    type Error = DbError;
+
+    fn try_from(r: InfeasibleWithOutcomeRow) -> Result<Self, DbError> {
+        let figure = r.elite.standing;
+        let (cell, elite) = r.elite.elite()?;
+        Ok(StoredInfeasible {
+            cell,
+            candidate: elite.candidate,
+            shortfall: elite.shortfall,
+            standing: figure,
+            genome: elite.genome,
+            outcome: serde_json::from_str(&r.outcome)
+                .map_err(|e| DbError::Corrupt(format!("infeasible elite: {e}")))?,
+        })
+    }
+}
