@@ -32,6 +32,7 @@ pub use genome::{Controller, Genome, Morphology};
 pub use outcome::{Fall, InvalidReason, Outcome, Shortfall, Standing, TrialStats};
 pub use pose::StartPose;
 pub use precheck::EvalContext;
+pub use rng::CandidateKey;
 pub use variation::{MutationRates, Scheme};
 
 /// The Strider build: trials are bit-identical only within one build (see

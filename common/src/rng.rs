@@ -23,6 +23,30 @@ pub struct RunSeed(pub u64);
 #[serde(transparent)]
 pub struct CandidateNumber(pub u64);
 
+/// A candidate of a run: run index, generation and candidate number. The generation is
+/// part of the identity because a draw of the initial population that turned out not to
+/// be needed shares its number with a candidate of generation 1: a late result for the
+/// draw must never be taken for the offspring.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CandidateKey {
+    /// Run index (= run id), from 0.
+    pub run: u32,
+    /// Generation (0 = initial population).
+    pub generation: u32,
+    /// Candidate number within the run.
+    pub number: CandidateNumber,
+}
+
+impl std::fmt::Display for CandidateKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "run {} generation {} candidate {}",
+            self.run, self.generation, self.number.0
+        )
+    }
+}
+
 /// Everything that decides a candidate's random draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct CandidateSeed {

@@ -18,7 +18,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use strider_common::experiment::{ConstraintHandling, RunSettings};
 use strider_common::precheck::precheck;
-use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
+use strider_common::rng::{CandidateKey, CandidateNumber, CandidateSeed, RunSeed};
 use strider_common::EvalContext;
 use strider_common::{
     BodyPlan, CellIndex, Experiment, Features, Genome, InvalidReason, Outcome, Scheme, Standing,
@@ -38,30 +38,6 @@ pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
 /// A worker connection (ids are never reused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct WorkerId(pub u64);
-
-/// A candidate of a run: run index, generation and candidate number. The generation is
-/// part of the identity because a draw of the initial population that turned out not to
-/// be needed shares its number with a candidate of generation 1: a late result for the
-/// draw must never be taken for the offspring.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct CandidateKey {
-    /// Run index (= run id), from 0.
-    pub run: u32,
-    /// Generation (0 = initial population).
-    pub generation: u32,
-    /// Candidate number within the run.
-    pub number: CandidateNumber,
-}
-
-impl std::fmt::Display for CandidateKey {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "run {} generation {} candidate {}",
-            self.run, self.generation, self.number.0
-        )
-    }
-}
 
 /// A candidate handed to a worker.
 #[derive(Clone, Debug, PartialEq)]

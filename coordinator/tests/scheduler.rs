@@ -5,11 +5,11 @@
 use std::time::{Duration, Instant};
 use strider_common::rng::{CandidateNumber, CandidateSeed};
 use strider_common::EvalContext;
-use strider_common::{Experiment, InvalidReason, Outcome};
+use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
 use strider_coordinator::changes::{RunRecord, Write};
 use strider_coordinator::library::{InfeasibleLibrary, Library};
 use strider_coordinator::scheduler::{
-    fraction_done, Accepted, Assignment, CandidateKey, Refusal, RunProgress, Scheduler, WorkerId,
+    fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler, WorkerId,
 };
 use strider_worker::synthetic::instant_outcome;
 

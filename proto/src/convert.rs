@@ -6,6 +6,7 @@ use crate::v1;
 use strider_common::brief::{Constraint, Violation};
 use strider_common::features::{CellIndex, Features, FEATURE_COUNT};
 use strider_common::genome::{GenomeError, ParamVector};
+use strider_common::rng::{CandidateKey, CandidateNumber};
 use strider_common::{
     Controller, Fall, Genome, InvalidReason, Morphology, Outcome, Scheme, TrialStats,
 };
@@ -68,6 +69,32 @@ impl TryFrom<&v1::Genome> for Genome {
             controller: vector::<Controller>("genome.controller", &g.controller)?,
         })
     }
+}
+
+impl From<CandidateKey> for v1::CandidateId {
+    fn from(k: CandidateKey) -> Self {
+        v1::CandidateId {
+            run: k.run,
+            generation: k.generation,
+            number: k.number.0,
+        }
+    }
+}
+
+impl From<&v1::CandidateId> for CandidateKey {
+    fn from(id: &v1::CandidateId) -> Self {
+        CandidateKey {
+            run: id.run,
+            generation: id.generation,
+            number: CandidateNumber(id.number),
+        }
+    }
+}
+
+/// The candidate a message names; refused when the id is missing.
+pub fn key_from_wire(field: &str, id: Option<&v1::CandidateId>) -> Result<CandidateKey, WireError> {
+    id.map(CandidateKey::from)
+        .ok_or_else(|| wire_err(field, "missing"))
 }
 
 /// The wire form of a scheme.

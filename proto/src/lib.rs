@@ -17,4 +17,5 @@ pub const PROTOCOL_VERSION: u32 = 1;
 
 pub mod convert;
 pub mod process;
+pub mod secret;
 pub mod terminal;

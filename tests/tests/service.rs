@@ -243,6 +243,38 @@ fn a_worker_told_to_give_up_waits_while_its_coordinator_serves_and_exits_69_once
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn worker_and_coordinator_refuse_the_same_weak_secret_the_same_way() {
+    let dir = temp_dir("service-weak-secret");
+    let weak = dir.join("weak");
+    std::fs::write(&weak, "short secret\n").unwrap();
+    let worker = Command::new(binary("strider-worker"))
+        .args(["--connect", "http://127.0.0.1:9", "--token-file"])
+        .arg(&weak)
+        .output()
+        .unwrap();
+    let serve = Command::new(binary("strider-coordinator"))
+        .args(["serve", "--db"])
+        .arg(dir.join("never.db"))
+        .args([
+            "--experiment",
+            FIXTURE,
+            "--listen",
+            "127.0.0.1:0",
+            "--token-file",
+        ])
+        .arg(&weak)
+        .output()
+        .unwrap();
+    for out in [&worker, &serve] {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains("at least 16 characters"), "{err}");
+    }
+    assert!(!dir.join("never.db").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `GET path` over plain HTTP; the whole response.
 fn http_get(addr: &str, path: &str) -> String {
     use std::io::{Read, Write};

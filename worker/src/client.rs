@@ -13,9 +13,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use strider_common::rng::CandidateSeed;
+use strider_common::CandidateKey;
 use strider_common::EvalContext;
 use strider_common::{Experiment, Genome, Scheme};
 use strider_proto::convert::scheme_from_wire;
+use strider_proto::secret::Secret;
 use strider_proto::v1::{
     self, coordinator_message, worker_message, worker_service_client::WorkerServiceClient,
     WorkerMessage,
@@ -93,8 +95,8 @@ fn endpoint(url: &str) -> Result<Endpoint, WorkerError> {
 pub struct ConnectOptions {
     /// Where the coordinator is.
     pub coordinator: CoordinatorAddress,
-    /// The `authorization` metadata value (`Bearer <secret>`), if the coordinator wants one.
-    pub authorization: Option<String>,
+    /// The secret to show, if the coordinator wants one.
+    pub authorization: Option<Secret>,
     /// Trials at once.
     pub threads: NonZeroUsize,
     /// Name for the coordinator's logs.
@@ -158,17 +160,7 @@ pub async fn work(
     if let CoordinatorAddress::Url(url) = &opts.coordinator {
         endpoint(url)?;
     }
-    let authorization = opts
-        .authorization
-        .as_deref()
-        .map(|a| {
-            MetadataValue::try_from(a).map_err(|_| {
-                WorkerError::Refused(
-                    "the secret holds characters gRPC metadata cannot carry".into(),
-                )
-            })
-        })
-        .transpose()?;
+    let authorization = opts.authorization.as_ref().map(Secret::metadata);
     // Shared across sessions, so trials of a lost session still running keep their cores.
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
     let pool = SimPool::new(opts.threads)
@@ -348,7 +340,7 @@ async fn session(
         (f64::from(lease_seconds) / 3.0).max(0.2),
     ));
     let mut queue: VecDeque<Job> = VecDeque::new();
-    let mut running: BTreeSet<(u32, u32, u64)> = BTreeSet::new();
+    let mut running: BTreeSet<CandidateKey> = BTreeSet::new();
     // Answers of this session's trials (a later session never sees them).
     let (answer, mut answers) = flume::unbounded::<Done>();
     let evaluator = opts.evaluator;
@@ -386,7 +378,7 @@ async fn session(
             permit = cores.clone().acquire_owned(), if !queue.is_empty() => {
                 let permit = permit.expect("the semaphore is never closed");
                 let j = queue.pop_front().expect("checked non-empty");
-                running.insert((j.id.run, j.id.generation, j.id.number));
+                running.insert(CandidateKey::from(&j.id));
                 // Said before simulating, so that a worker that dies in this trial counts
                 // against the candidate (a crash it causes is caught after a few).
                 let began = v1::Heartbeat { in_progress: Vec::new(), started: vec![j.id] };
@@ -404,7 +396,7 @@ async fn session(
                 });
             },
             Ok((id, outcome, seconds)) = answers.recv_async() => {
-                running.remove(&(id.run, id.generation, id.number));
+                running.remove(&CandidateKey::from(&id));
                 // A simulation that panicked has no outcome to send: leave the session, so
                 // that the coordinator counts an attempt against the candidate (it fails
                 // after a few workers) and leases the rest elsewhere; then reconnect.
@@ -426,7 +418,7 @@ async fn session(
                 // back to this worker began again as not started.
                 let started: Vec<v1::CandidateId> = running
                     .iter()
-                    .map(|&(run, generation, number)| v1::CandidateId { run, generation, number })
+                    .map(|&k| v1::CandidateId::from(k))
                     .collect();
                 let in_progress: Vec<v1::CandidateId> = started
                     .iter()
@@ -462,7 +454,7 @@ async fn drain(
     bound: Duration,
     out: &mpsc::Sender<WorkerMessage>,
     queue: VecDeque<Job>,
-    mut running: BTreeSet<(u32, u32, u64)>,
+    mut running: BTreeSet<CandidateKey>,
     answers: &mut flume::Receiver<Done>,
 ) {
     let release = |candidates: Vec<v1::CandidateId>| {
@@ -481,7 +473,7 @@ async fn drain(
         tokio::select! {
             next = answers.recv_async() => match next {
                 Ok((id, outcome, seconds)) => {
-                    running.remove(&(id.run, id.generation, id.number));
+                    running.remove(&CandidateKey::from(&id));
                     // A panicked trial is handed back (the session is ending anyway).
                     let Ok(outcome) = outcome else {
                         let _ = out.send(release(vec![id])).await;
@@ -498,14 +490,7 @@ async fn drain(
         }
     }
     if !running.is_empty() {
-        let left = running
-            .iter()
-            .map(|&(run, generation, number)| v1::CandidateId {
-                run,
-                generation,
-                number,
-            })
-            .collect();
+        let left = running.iter().map(|&k| v1::CandidateId::from(k)).collect();
         let _ = out.send(release(left)).await;
     }
     // Threads still simulating finish in the background; the process does not wait.

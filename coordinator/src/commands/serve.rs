@@ -2,12 +2,12 @@
 //! or a signal stops it.
 
 use super::{seconds, Exit};
-use crate::service::auth::Secret;
 use crate::service::server::{serve, Backup, Ended, ServeOptions};
 use anyhow::Context;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use strider_proto::process::{stop_signal, UsageError};
+use strider_proto::secret::Secret;
 
 /// Arguments of `serve`.
 #[derive(clap::Args)]

@@ -1,10 +1,10 @@
 //! `status`: a running coordinator's progress, over gRPC, as a table or JSON.
 
 use super::Exit;
-use crate::service::auth::Secret;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Duration;
+use strider_proto::secret::Secret;
 use strider_proto::v1::client_service_client::ClientServiceClient;
 
 /// Arguments of `status`.
@@ -31,15 +31,7 @@ pub async fn execute(args: StatusArgs) -> anyhow::Result<Exit> {
         .connect()
         .await
         .with_context(|| format!("connecting to {url}"))?;
-    let header: tonic::metadata::MetadataValue<_> = secret
-        .header_value()
-        .parse()
-        .context("the secret cannot travel as gRPC metadata")?;
-    let mut client =
-        ClientServiceClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
-            r.metadata_mut().insert("authorization", header.clone());
-            Ok(r)
-        });
+    let mut client = ClientServiceClient::with_interceptor(channel, secret.client_interceptor());
     let p = client
         .get_progress(strider_proto::v1::ProgressRequest {
             protocol_version: strider_proto::PROTOCOL_VERSION,

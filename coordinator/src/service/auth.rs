@@ -1,133 +1,23 @@
-//! The shared secret every call but health must present (`authorization: Bearer <secret>`),
-//! compared in constant time so that timing says nothing about how much of a guess is right.
+//! The server side of the shared secret ([`strider_proto::secret`]): an interceptor that
+//! refuses calls without it and lifts a connection's deadline once it has shown it.
 
-use std::path::Path;
+use strider_proto::secret::Secret;
 use tonic::{Request, Status};
 
-/// The environment variable that may hold the secret instead of a file.
-pub const SECRET_ENV: &str = "STRIDER_SECRET";
-
-/// A shared secret.
-#[derive(Clone)]
-pub struct Secret(String);
-
-impl std::fmt::Debug for Secret {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Secret(..)")
-    }
-}
-
-/// Why a secret could not be had.
-#[derive(Debug, thiserror::Error)]
-pub enum SecretError {
-    /// The file could not be read.
-    #[error("secret file {path}: {source}")]
-    Read {
-        /// The file.
-        path: String,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// The secret is empty or too short.
-    #[error("{0}: the secret must be at least 16 characters (one line, no spaces)")]
-    TooShort(String),
-    /// Neither a file nor the environment gave one.
-    #[error("no secret: pass --token-file FILE or set {SECRET_ENV}")]
-    Missing,
-}
-
-impl Secret {
-    /// A secret from text (a file's first line, trimmed).
-    pub fn new(text: &str, origin: &str) -> Result<Self, SecretError> {
-        let s = text.lines().next().unwrap_or("").trim();
-        if s.len() < 16 || s.contains(char::is_whitespace) {
-            return Err(SecretError::TooShort(origin.into()));
-        }
-        Ok(Self(s.to_string()))
-    }
-
-    /// From `file` if given, else from the environment.
-    pub fn load(file: Option<&Path>) -> Result<Self, SecretError> {
-        match file {
-            Some(path) => {
-                let text = std::fs::read_to_string(path).map_err(|source| SecretError::Read {
-                    path: path.display().to_string(),
-                    source,
-                })?;
-                Self::new(&text, &path.display().to_string())
+/// A tonic interceptor that refuses calls without `secret`.
+pub fn interceptor(secret: &Secret) -> impl Fn(Request<()>) -> Result<Request<()>, Status> + Clone {
+    let secret = secret.clone();
+    move |req: Request<()>| match req.metadata().get("authorization") {
+        Some(v) if secret.matches(v.as_bytes()) => {
+            // The connection has shown the secret: its deadline no longer applies.
+            if let Some(c) = req.extensions().get::<super::incoming::ConnectionInfo>() {
+                c.mark_authenticated();
             }
-            None => match std::env::var(SECRET_ENV) {
-                Ok(text) => Self::new(&text, SECRET_ENV),
-                Err(_) => Err(SecretError::Missing),
-            },
+            Ok(req)
         }
-    }
-
-    /// A fresh random secret (for `run`, whose workers live in the same process).
-    pub fn random() -> Self {
-        use rand::Rng;
-        let mut rng = rand::rng();
-        Self(
-            (0..32)
-                .map(|_| format!("{:x}", rng.random_range(0..16u8)))
-                .collect(),
-        )
-    }
-
-    /// The metadata value a caller sends.
-    pub fn header_value(&self) -> String {
-        format!("Bearer {}", self.0)
-    }
-
-    /// Whether `presented` is this secret's header value, in time independent of where
-    /// they differ.
-    pub fn matches(&self, presented: &[u8]) -> bool {
-        let expected = self.header_value();
-        let expected = expected.as_bytes();
-        let mut diff = u8::from(presented.len() != expected.len());
-        for (i, e) in expected.iter().enumerate() {
-            diff |= e ^ presented.get(i).copied().unwrap_or(0);
-        }
-        diff == 0
-    }
-
-    /// A tonic interceptor that refuses calls without this secret.
-    pub fn interceptor(&self) -> impl Fn(Request<()>) -> Result<Request<()>, Status> + Clone {
-        let secret = self.clone();
-        move |req: Request<()>| match req.metadata().get("authorization") {
-            Some(v) if secret.matches(v.as_bytes()) => {
-                // The connection has shown the secret: its deadline no longer applies.
-                if let Some(c) = req.extensions().get::<super::incoming::ConnectionInfo>() {
-                    c.mark_authenticated();
-                }
-                Ok(req)
-            }
-            Some(_) => Err(Status::unauthenticated("wrong secret")),
-            None => Err(Status::unauthenticated(
-                "missing secret: send metadata `authorization: Bearer <secret>`",
-            )),
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn only_the_exact_header_matches() {
-        let s = Secret::new("0123456789abcdef\n", "test").unwrap();
-        assert!(s.matches(b"Bearer 0123456789abcdef"));
-        assert!(!s.matches(b"Bearer 0123456789abcdeg"));
-        assert!(!s.matches(b"Bearer 0123456789abcdef0"));
-        assert!(!s.matches(b"Bearer 0123456789abcde"));
-        assert!(!s.matches(b""));
-    }
-
-    #[test]
-    fn short_secrets_are_refused() {
-        assert!(Secret::new("short", "f").is_err());
-        assert!(Secret::new("", "f").is_err());
-        assert!(!Secret::random().matches(Secret::random().header_value().as_bytes()));
+        Some(_) => Err(Status::unauthenticated("wrong secret")),
+        None => Err(Status::unauthenticated(
+            "missing secret: send metadata `authorization: Bearer <secret>`",
+        )),
     }
 }

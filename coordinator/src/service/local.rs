@@ -1,12 +1,12 @@
 //! `strider-coordinator run`: the coordinator and a worker in one process, talking gRPC
 //! over loopback with a one-time secret, so one machine runs exactly what a cluster runs.
 
-use super::auth::Secret;
 use super::server::{serve, worker_url, Ended, ServeOptions};
 use crate::db::Db;
 use std::num::NonZeroUsize;
 use std::time::Duration;
 use strider_common::Experiment;
+use strider_proto::secret::Secret;
 use strider_worker::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use tokio::net::TcpListener;
 use tokio::sync::watch;
@@ -27,7 +27,7 @@ pub async fn run_local(
     let worker = tokio::spawn(work(
         ConnectOptions {
             coordinator: CoordinatorAddress::Url(url),
-            authorization: Some(secret.header_value()),
+            authorization: Some(secret.clone()),
             threads,
             name: format!("local ({} threads)", threads),
             build: strider_common::build_id(),

@@ -3,7 +3,6 @@
 //! expire leases, print progress, and stop when every run is finished (or when asked),
 //! with everything committed.
 
-use super::auth::Secret;
 use super::client_api::{progress, ClientApi};
 use super::metrics::serve_metrics;
 use super::worker_api::WorkerApi;
@@ -19,6 +18,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strider_common::Experiment;
 use strider_proto::process::duration_words;
+use strider_proto::secret::Secret;
 use strider_proto::terminal::Bar;
 use strider_proto::v1;
 use strider_proto::v1::client_service_server::ClientServiceServer;
@@ -180,7 +180,7 @@ pub async fn serve(
     };
     let reflection = reflected().build_v1()?;
     let reflection_v1alpha = reflected().build_v1alpha()?;
-    let interceptor = secret.interceptor();
+    let interceptor = super::auth::interceptor(&secret);
     let workers = WorkerServiceServer::new(WorkerApi {
         shared: shared.clone(),
     })

@@ -4,15 +4,15 @@
 
 use super::Shared;
 use crate::changes::Write;
-use crate::scheduler::{CandidateKey, Refusal, WorkerId};
+use crate::scheduler::{Refusal, WorkerId};
 use std::collections::HashSet;
 use std::pin::Pin;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
-use strider_common::rng::CandidateNumber;
+use strider_common::CandidateKey;
 use strider_common::Outcome;
-use strider_proto::convert::scheme_to_wire;
+use strider_proto::convert::{self, scheme_to_wire};
 use strider_proto::v1::{
     self, coordinator_message, worker_message, worker_service_server::WorkerService,
     CoordinatorMessage, WorkerMessage,
@@ -42,20 +42,7 @@ fn message(kind: coordinator_message::Kind) -> Result<CoordinatorMessage, Status
 
 /// A candidate id off the wire.
 pub fn key_from_wire(id: Option<&v1::CandidateId>) -> Result<CandidateKey, Status> {
-    let id = id.ok_or_else(|| Status::invalid_argument("id: missing"))?;
-    Ok(CandidateKey {
-        run: id.run,
-        generation: id.generation,
-        number: CandidateNumber(id.number),
-    })
-}
-
-fn key_to_wire(k: CandidateKey) -> v1::CandidateId {
-    v1::CandidateId {
-        run: k.run,
-        generation: k.generation,
-        number: k.number.0,
-    }
+    convert::key_from_wire("id", id).map_err(|e| Status::invalid_argument(e.to_string()))
 }
 
 #[tonic::async_trait]
@@ -249,7 +236,7 @@ impl Session {
                 continue;
             }
             let m = coordinator_message::Kind::Assignment(v1::Assignment {
-                id: Some(key_to_wire(a.key)),
+                id: Some(a.key.into()),
                 genome: Some((&a.genome).into()),
                 scheme: scheme_to_wire(a.scheme).into(),
                 run_seed: a.run_seed.0,

@@ -3,8 +3,9 @@
 use crate::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use anyhow::Context;
 use std::num::NonZeroUsize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use strider_proto::process::{default_threads, host_name, stop_signal, UsageError};
+use strider_proto::secret::{Secret, SecretError};
 
 /// Working for a coordinator.
 #[derive(clap::Args)]
@@ -44,22 +45,6 @@ pub struct ConnectArgs {
     benchmark_instant_results: bool,
 }
 
-/// The secret from a file, else the environment; none if neither is given.
-fn load_secret(file: Option<&Path>) -> anyhow::Result<Option<String>> {
-    let text = match file {
-        Some(f) => {
-            std::fs::read_to_string(f).with_context(|| format!("secret file {}", f.display()))?
-        }
-        None => match std::env::var("STRIDER_SECRET") {
-            Ok(s) => s,
-            Err(_) => return Ok(None),
-        },
-    };
-    let secret = text.lines().next().unwrap_or("").trim().to_string();
-    anyhow::ensure!(!secret.is_empty(), "the secret is empty");
-    Ok(Some(format!("Bearer {secret}")))
-}
-
 /// Works for the coordinator the arguments name until its experiment is finished, a
 /// signal stops it, or (`--give-up-after`) none has answered for too long.
 pub fn execute(args: ConnectArgs) -> anyhow::Result<()> {
@@ -91,7 +76,12 @@ pub fn execute(args: ConnectArgs) -> anyhow::Result<()> {
     };
     let opts = ConnectOptions {
         coordinator,
-        authorization: load_secret(args.token_file.as_deref())?,
+        // Without one the coordinator refuses the worker, saying so.
+        authorization: match Secret::load(args.token_file.as_deref()) {
+            Ok(secret) => Some(secret),
+            Err(SecretError::Missing) => None,
+            Err(e) => return Err(e.into()),
+        },
         threads: args.threads.unwrap_or_else(default_threads),
         name: args
             .name
