@@ -275,6 +275,27 @@ fn worker_and_coordinator_refuse_the_same_weak_secret_the_same_way() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_benchmark_worker_finishes_a_run_with_made_up_results() {
+    let dir = temp_dir("service-instant");
+    let db = dir.join("instant.db");
+    let (mut coordinator, url) = serve(&dir, &db, 0, "60");
+    let mut cmd = Command::new(binary("strider-worker"));
+    cmd.args(["--connect", &url, "--threads", "2", "--name", "bench"])
+        .args(["--token-file", secret_file(&dir).to_str().unwrap()])
+        .arg("--benchmark-instant-results");
+    let mut w = Process::spawn("bench", cmd);
+    finish(&mut coordinator);
+    assert!(w.wait_exit(START).success(), "{}", w.log());
+    let unfinished = strider_tests::sqlite(&db, "SELECT COUNT(*) FROM runs WHERE NOT finished");
+    assert_eq!(unfinished.trim(), "0");
+    // The one worker session sent results (the rest were settled by the prechecks).
+    let sent = strider_tests::sqlite(&db, "SELECT results FROM workers");
+    assert!(sent.trim().parse::<u64>().unwrap() > 0, "{sent}");
+    assert_eq!(integrity(&db), "ok");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `GET path` over plain HTTP; the whole response.
 fn http_get(addr: &str, path: &str) -> String {
     use std::io::{Read, Write};

@@ -4,7 +4,8 @@
 //! heartbeats, and on shutdown give back what has not started and finish (or give back)
 //! the rest within a bound.
 
-use crate::pool::{Answer, SimPool, Trial};
+use crate::evaluate::evaluate;
+use crate::pool::{Answer, Evaluate, SimPool, Trial};
 use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
 use std::num::NonZeroUsize;
@@ -15,7 +16,7 @@ use std::time::Duration;
 use strider_common::rng::CandidateSeed;
 use strider_common::CandidateKey;
 use strider_common::EvalContext;
-use strider_common::{Experiment, Genome, Scheme};
+use strider_common::{Experiment, Genome, Outcome, Scheme};
 use strider_proto::convert::scheme_from_wire;
 use strider_proto::secret::Secret;
 use strider_proto::v1::{
@@ -35,6 +36,17 @@ pub enum Evaluator {
     Simulation,
     /// **Benchmark only**: instant made-up results (see [`crate::synthetic`]).
     InstantSyntheticResults,
+}
+
+impl Evaluator {
+    /// What the simulation threads run for each trial: the session itself never asks
+    /// which evaluator it has.
+    pub fn function(self) -> Evaluate {
+        match self {
+            Evaluator::Simulation => evaluate,
+            Evaluator::InstantSyntheticResults => instant_outcome,
+        }
+    }
 }
 
 /// Where the coordinator is.
@@ -163,7 +175,7 @@ pub async fn work(
     let authorization = opts.authorization.as_ref().map(Secret::metadata);
     // Shared across sessions, so trials of a lost session still running keep their cores.
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
-    let pool = SimPool::new(opts.threads)
+    let pool = SimPool::with(opts.threads, opts.evaluator.function())
         .map_err(|e| WorkerError::Refused(format!("starting simulation threads: {e}")))?;
     let first_backoff = Duration::from_millis(100);
     let mut backoff = first_backoff;
@@ -266,6 +278,15 @@ fn msg(kind: worker_message::Kind) -> WorkerMessage {
     WorkerMessage { kind: Some(kind) }
 }
 
+/// The message that carries one candidate's result.
+fn result_message(id: v1::CandidateId, outcome: &Outcome, seconds: f64) -> WorkerMessage {
+    msg(worker_message::Kind::Result(v1::Result {
+        id: Some(id),
+        outcome: Some(outcome.into()),
+        seconds,
+    }))
+}
+
 type Done = Answer<v1::CandidateId>;
 
 async fn session(
@@ -343,7 +364,6 @@ async fn session(
     let mut running: BTreeSet<CandidateKey> = BTreeSet::new();
     // Answers of this session's trials (a later session never sees them).
     let (answer, mut answers) = flume::unbounded::<Done>();
-    let evaluator = opts.evaluator;
     let lost = |why: String| Ok(End::Lost(why, true));
     loop {
         tokio::select! {
@@ -353,18 +373,7 @@ async fn session(
                         Ok(j) => j,
                         Err(why) => return lost(format!("bad assignment: {why}")),
                     };
-                    if evaluator == Evaluator::InstantSyntheticResults {
-                        // Microseconds of work: answer at once, without a thread hand-off,
-                        // so that the benchmark measures the coordinator.
-                        let outcome = instant_outcome(&ctx, &j.genome, j.scheme, j.seed);
-                        let r = v1::Result { id: Some(j.id), outcome: Some((&outcome).into()), seconds: 0.0 };
-                        if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
-                            return lost("the stream closed".into());
-                        }
-                        RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
-                    } else {
-                        queue.push_back(j);
-                    }
+                    queue.push_back(j);
                 }
                 Ok(Some(v1::CoordinatorMessage { kind: Some(coordinator_message::Kind::Finished(_)) })) => {
                     return Ok(End::Finished);
@@ -407,8 +416,7 @@ async fn session(
                         return lost(format!("the simulation of run {} candidate {} panicked: {why}", id.run, id.number));
                     }
                 };
-                let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
-                if out.send(msg(worker_message::Kind::Result(r))).await.is_err() {
+                if out.send(result_message(id, &outcome, seconds)).await.is_err() {
                     return lost("the stream closed".into());
                 }
                 RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
@@ -479,8 +487,7 @@ async fn drain(
                         let _ = out.send(release(vec![id])).await;
                         continue;
                     };
-                    let r = v1::Result { id: Some(id), outcome: Some((&outcome).into()), seconds };
-                    if out.send(msg(worker_message::Kind::Result(r))).await.is_ok() {
+                    if out.send(result_message(id, &outcome, seconds)).await.is_ok() {
                         RESULTS_SENT.fetch_add(1, Ordering::Relaxed);
                     }
                 }

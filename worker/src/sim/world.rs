@@ -115,7 +115,7 @@ impl RobotWorld {
         // One solver substep: rapier's solver iterations are TGS substeps, each re-solving the
         // multibody dynamics (4x the cost), and the trial's torque accounting assumes the
         // spring acts over exactly one step of `dt`. Internal PGS iterations resolve the
-        // contacts within it (notes/rapier.md: 1 to 4 stand still and walk smoothly).
+        // contacts within it (docs/rapier.md: 1 to 4 stand still and walk smoothly).
         p.num_solver_iterations = 1;
         p.num_internal_pgs_iterations = 4;
         p.max_ccd_substeps = 0;
