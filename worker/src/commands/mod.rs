@@ -26,6 +26,7 @@ pub mod random;
 pub mod survey;
 pub mod urdf;
 
+use anyhow::Context;
 use clap::{Parser, Subcommand};
 use std::path::Path;
 use strider_common::{EvalContext, Experiment};
@@ -92,13 +93,8 @@ fn context(experiment: Option<&Path>) -> anyhow::Result<EvalContext> {
 /// Prints a report as pretty JSON or as its table.
 fn emit<T: serde::Serialize + std::fmt::Display>(report: &T, json: bool) -> anyhow::Result<()> {
     if json {
-        outln!(
-            "{}",
-            anyhow::Context::context(
-                serde_json::to_string_pretty(report),
-                "serialising the report"
-            )?
-        );
+        let text = serde_json::to_string_pretty(report).context("serialising the report")?;
+        outln!("{text}");
     } else {
         outln!("{report}");
     }
