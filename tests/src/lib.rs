@@ -330,3 +330,26 @@ pub fn free_port() -> u16 {
         .expect("a free port")
         .port()
 }
+
+/// Runs `ip args...`; an `ip` that cannot start reads as a refusal.
+pub fn ip(args: &[&str]) -> std::process::Output {
+    Command::new("ip")
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| std::process::Output {
+            status: std::os::unix::process::ExitStatusExt::from_raw(1 << 8),
+            stdout: Vec::new(),
+            stderr: format!("ip: {e}").into_bytes(),
+        })
+}
+
+/// Runs `ip args...` and panics with its stderr unless it succeeded.
+pub fn ip_ok(args: &[&str]) {
+    let out = ip(args);
+    assert!(
+        out.status.success(),
+        "ip {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

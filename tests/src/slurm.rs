@@ -17,9 +17,9 @@
 //! (Debian's slurmctld, slurmd, munge, slurm-client); [`Cluster::start`] says what is
 //! missing and returns `None` (failing instead under `STRIDER_REQUIRE_TOOLS`).
 
-use crate::{installed, skip_without, Process};
+use crate::{installed, ip, ip_ok, skip_without, Process};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// How long daemons get to start and nodes to register.
@@ -39,28 +39,6 @@ pub struct Cluster {
     munged: Option<Process>,
     slurmctld: Option<Process>,
     slurmds: Vec<Option<Process>>,
-}
-
-/// Runs `ip args...`; an `ip` that cannot start reads as a refusal.
-fn ip(args: &[&str]) -> Output {
-    Command::new("ip")
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| Output {
-            status: std::os::unix::process::ExitStatusExt::from_raw(1 << 8),
-            stdout: Vec::new(),
-            stderr: format!("ip: {e}").into_bytes(),
-        })
-}
-
-fn ip_ok(args: &[&str]) {
-    let out = ip(args);
-    assert!(
-        out.status.success(),
-        "ip {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 impl Cluster {

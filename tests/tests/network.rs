@@ -8,8 +8,8 @@ use std::process::Command;
 use std::time::Duration;
 use strider_coordinator::db::Db;
 use strider_tests::{
-    assert_same_library, binary, export, free_port, library_run_builds, secret_file, skip_without,
-    temp_dir, workspace_root, Process,
+    assert_same_library, binary, export, free_port, ip, ip_ok, library_run_builds, secret_file,
+    skip_without, temp_dir, workspace_root, Process,
 };
 
 const FIXTURE: &str = "tests/fixtures/service.toml";
@@ -21,28 +21,6 @@ const FINISH: Duration = Duration::from_secs(300);
 /// (with their links and anything still inside).
 struct Network {
     prefix: String,
-}
-
-fn ip(args: &[&str]) -> std::process::Output {
-    match Command::new("ip").args(args).output() {
-        Ok(out) => out,
-        // No iproute2: the same as a refusal, for the probe to report.
-        Err(e) => std::process::Output {
-            status: std::os::unix::process::ExitStatusExt::from_raw(1 << 8),
-            stdout: Vec::new(),
-            stderr: format!("ip: {e}").into_bytes(),
-        },
-    }
-}
-
-fn ip_ok(args: &[&str]) {
-    let out = ip(args);
-    assert!(
-        out.status.success(),
-        "ip {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 impl Network {
