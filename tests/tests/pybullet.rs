@@ -5,7 +5,8 @@
 use std::process::Command;
 use strider_tests::{run_ok, skip_without, temp_dir, workspace_root};
 
-/// A Python that has PyBullet (`.ci/run` installs it with pip), if any.
+/// A Python that can import PyBullet (`.ci/run` installs it and NumPy, which it needs, with
+/// pip), if any.
 fn python_with_pybullet() -> Option<&'static str> {
     ["python3", "/usr/bin/python3"].into_iter().find(|py| {
         Command::new(py)
@@ -18,7 +19,7 @@ fn python_with_pybullet() -> Option<&'static str> {
 #[test]
 fn pybullet_loads_max_at_its_start_pose_with_the_feet_where_the_model_puts_them() {
     let Some(python) = python_with_pybullet() else {
-        skip_without("PyBullet (python3 -m pip install pybullet)");
+        skip_without("PyBullet (python3 -m pip install pybullet numpy)");
         return;
     };
     let dir = temp_dir("pybullet");
