@@ -111,6 +111,26 @@ pub fn default_threads() -> std::num::NonZeroUsize {
     std::thread::available_parallelism().unwrap_or(std::num::NonZeroUsize::MIN)
 }
 
+/// Writes a line to standard output and returns from the enclosing function on an error,
+/// which `closed_pipe` then recognises: a reader that closed the pipe early (`| head`)
+/// ends a command quietly.
+#[macro_export]
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*)?
+    }};
+}
+
+/// `outln!` without the newline.
+#[macro_export]
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($t)*)?
+    }};
+}
+
 /// Whether `e` comes from writing to a pipe whose reader has gone (`strider-coordinator
 /// analyse | head`): the reader had enough, so the command ends quietly with success.
 /// SIGPIPE is left ignored, as Rust sets it: the same binaries serve gRPC, where a peer

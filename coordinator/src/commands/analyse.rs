@@ -6,6 +6,7 @@ use super::Exit;
 use crate::analysis::summary::{summarise, RunResult};
 use anyhow::bail;
 use std::path::PathBuf;
+use strider_proto::out;
 
 /// Arguments of `analyse`.
 #[derive(clap::Args)]

@@ -5,6 +5,7 @@ use super::Exit;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use strider_common::Experiment;
+use strider_proto::outln;
 use strider_proto::process::default_threads;
 
 /// Arguments of `check`.

@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use strider_common::{BodyPlan, CellIndex, Outcome};
+use strider_proto::outln;
 
 /// What `export` writes.
 #[derive(Clone, Copy, ValueEnum)]

@@ -1,23 +1,6 @@
 //! The command line of `strider-coordinator`: its arguments and one module per command.
 //! `main` parses, calls [`execute`] and turns the [`Exit`] into a status.
 
-/// Writes a line to standard output and returns from the command on an error: a reader that
-/// closed the pipe early (`| head`) ends the command quietly (`closed_pipe` in `main`).
-macro_rules! outln {
-    ($($t:tt)*) => { {
-        use std::io::Write as _;
-        writeln!(std::io::stdout().lock(), $($t)*)?
-    } };
-}
-
-/// [`outln`] without the newline.
-macro_rules! out {
-    ($($t:tt)*) => { {
-        use std::io::Write as _;
-        write!(std::io::stdout().lock(), $($t)*)?
-    } };
-}
-
 pub mod analyse;
 pub mod check;
 pub mod export;

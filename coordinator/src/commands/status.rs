@@ -4,6 +4,7 @@ use super::Exit;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Duration;
+use strider_proto::outln;
 use strider_proto::secret::Secret;
 use strider_proto::v1::client_service_client::ClientServiceClient;
 

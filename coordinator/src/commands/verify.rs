@@ -10,6 +10,7 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use strider_common::experiment::RunSpec;
 use strider_common::{Experiment, Outcome};
+use strider_proto::outln;
 
 /// Arguments of `verify`.
 #[derive(clap::Args)]

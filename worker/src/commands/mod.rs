@@ -2,23 +2,6 @@
 //! no command it works for a coordinator ([`connect`]). `main` parses, calls [`execute`]
 //! and turns the outcome into an exit status.
 
-/// Writes a line to standard output and returns from the command on an error: a reader that
-/// closed the pipe early (`| head`) ends the command quietly (`closed_pipe` in `main`).
-macro_rules! outln {
-    ($($t:tt)*) => { {
-        use std::io::Write as _;
-        writeln!(std::io::stdout().lock(), $($t)*)?
-    } };
-}
-
-/// [`outln`] without the newline.
-macro_rules! out {
-    ($($t:tt)*) => { {
-        use std::io::Write as _;
-        write!(std::io::stdout().lock(), $($t)*)?
-    } };
-}
-
 pub mod connect;
 pub mod eval;
 pub mod inspect;
@@ -30,6 +13,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use std::path::Path;
 use strider_common::{EvalContext, Experiment};
+use strider_proto::{out, outln};
 
 /// `strider-worker`'s arguments.
 #[derive(Parser)]
