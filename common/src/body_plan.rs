@@ -85,7 +85,6 @@ pub struct LinkPlan {
     pub axis: Unit<Vector3<f64>>,
     /// Orientation of the link frame relative to the parent frame at joint angle 0.
     pub rest: UnitQuaternion<f64>,
-    /// The joint's drive.
     pub drive: JointDrive,
     /// Tube plus the motor at the tip, in the link frame.
     pub mass: MassProperties,

@@ -60,7 +60,6 @@ impl Constraint {
 /// A failed constraint and by how much.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Violation {
-    /// Which constraint.
     pub constraint: Constraint,
     /// The design's value (kg, m or m/s).
     pub value: f64,

@@ -14,7 +14,6 @@ use std::path::Path;
 pub struct RunSettings {
     /// Candidates that must pass the brief before generations start.
     pub initial_population: u32,
-    /// Offspring per generation.
     pub offspring_per_generation: u32,
     /// Generations after the initial population.
     pub generations: u32,
@@ -176,11 +175,9 @@ pub struct Experiment {
 /// One run of an experiment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct RunSpec {
-    /// Its scheme.
     pub scheme: Scheme,
     /// Repeat number, from 0.
     pub repeat: u32,
-    /// Its seed.
     pub seed: RunSeed,
 }
 

@@ -100,7 +100,6 @@ pub struct CellIndex(pub u32);
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("feature `{name}` is {value}, which cannot be placed in a cell")]
 pub struct FeatureError {
-    /// The feature's name.
     pub name: &'static str,
     /// The offending value.
     pub value: f64,

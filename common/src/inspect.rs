@@ -12,7 +12,6 @@ use std::fmt;
 /// A genome's static summary.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Inspection {
-    /// Legs per side.
     pub legs_per_side: usize,
     /// Body foam + avionics + payload, kg.
     pub body_mass: f64,
@@ -28,9 +27,7 @@ pub struct Inspection {
     pub body_height: f64,
     /// Features d1..d6.
     pub features: Features,
-    /// Their bins.
     pub bins: Bins,
-    /// The cell.
     pub cell: CellIndex,
     /// Failed static constraints.
     pub violations: Vec<Violation>,

@@ -75,7 +75,6 @@ pub struct ParamSpec {
     pub unit: &'static str,
     /// Real or integer.
     pub kind: ParamKind,
-    /// Mutation group.
     pub group: MutationGroup,
     /// What the parameter does to the robot, one line.
     pub doc: &'static str,

@@ -20,7 +20,6 @@ pub const MUTATION_SIGMA_FRACTION: f64 = 0.1;
 pub struct MutationRates {
     /// Body extents and payload position.
     pub body: f64,
-    /// Legs per side.
     pub leg_count: f64,
     /// Leg attachment.
     pub leg_offset: f64,

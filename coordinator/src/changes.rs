@@ -26,7 +26,6 @@ pub struct RunRecord {
     pub next_candidate: u64,
     /// Whether the run has done all its generations.
     pub finished: bool,
-    /// Its feasible library.
     pub library: Library,
     /// Its infeasible library (empty under the paper's method).
     pub infeasible: InfeasibleLibrary,
@@ -35,13 +34,10 @@ pub struct RunRecord {
 /// One evaluated candidate applied to its run's library, ready to store.
 #[derive(Clone, Debug)]
 pub struct AppliedCandidate {
-    /// Its number.
     pub number: CandidateNumber,
     /// Its generation (0 = initial population).
     pub generation: u32,
-    /// Its genome.
     pub genome: Genome,
-    /// Its outcome.
     pub outcome: Outcome,
     /// What it did to the feasible library.
     pub placement: Placement,
@@ -98,7 +94,6 @@ impl RunRecord {
 /// written before it, so the database never holds half a generation.
 #[derive(Clone, Debug)]
 pub struct StepCommit {
-    /// Run id.
     pub run: i64,
     /// The run's position after the step.
     pub position: RunPosition,
@@ -139,15 +134,11 @@ impl StepCommit {
 pub enum Write {
     /// A candidate's result came in (or it failed for good).
     Resolved {
-        /// Run id.
         run: i64,
-        /// Candidate number.
         number: CandidateNumber,
-        /// Its generation.
         generation: u32,
         /// Leases it lost before.
         attempts: u32,
-        /// Its outcome.
         outcome: Outcome,
         /// Worker session that sent it (none when it failed).
         worker: Option<u64>,
@@ -156,11 +147,8 @@ pub enum Write {
     },
     /// A lease was lost (worker died, hung or disconnected); the candidate waits again.
     LeaseLost {
-        /// Run id.
         run: i64,
-        /// Candidate number.
         number: CandidateNumber,
-        /// Its generation.
         generation: u32,
         /// Leases it has lost so far.
         attempts: u32,
@@ -171,18 +159,14 @@ pub enum Write {
     Step(Box<StepCommit>),
     /// A worker connected.
     WorkerJoined {
-        /// Session id.
         id: u64,
-        /// Its name.
         name: String,
-        /// Its build.
         build: String,
         /// Candidates it holds at once.
         slots: u32,
     },
     /// A worker disconnected.
     WorkerLeft {
-        /// Session id.
         id: u64,
         /// Results it sent.
         results: u64,
@@ -194,11 +178,8 @@ pub enum Write {
 /// A candidate of a run's current step as stored: its result if one came in.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredPending {
-    /// Run id.
     pub run: i64,
-    /// Candidate number.
     pub number: CandidateNumber,
-    /// Its generation.
     pub generation: u32,
     /// Leases lost so far.
     pub attempts: u32,

@@ -14,13 +14,11 @@ use strider_common::{CellIndex, Features, Genome, Outcome, TrialStats};
 /// One elite as exported.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EliteRow {
-    /// Run id.
     pub run: i64,
     /// The run's scheme name.
     pub scheme: String,
     /// The run's repeat number.
     pub repeat: u32,
-    /// Its cell.
     pub cell: CellIndex,
     /// Its candidate number in the run.
     pub candidate: u64,
@@ -239,12 +237,7 @@ pub enum EliteChoice {
     /// The fittest elite (of one run, or of the experiment).
     Best,
     /// Run and cell, written `RUN:CELL`.
-    At {
-        /// Run id.
-        run: i64,
-        /// Cell index.
-        cell: u32,
-    },
+    At { run: i64, cell: u32 },
 }
 
 impl std::str::FromStr for EliteChoice {

@@ -44,9 +44,7 @@ pub struct WorkerId(pub u64);
 pub struct Assignment {
     /// Which candidate.
     pub key: CandidateKey,
-    /// Its genome.
     pub genome: Genome,
-    /// The run's scheme.
     pub scheme: Scheme,
     /// The run's seed.
     pub run_seed: RunSeed,
@@ -109,13 +107,9 @@ struct RunState {
 /// Progress of one run, now.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunProgress {
-    /// Run index.
     pub run: u32,
-    /// Scheme.
     pub scheme: Scheme,
-    /// Repeat.
     pub repeat: u32,
-    /// Seed.
     pub seed: RunSeed,
     /// Last completed generation.
     pub generation: u32,
@@ -127,7 +121,6 @@ pub struct RunProgress {
     pub trials_done: u64,
     /// Candidates of the current step still waiting or leased.
     pub trials_pending: u64,
-    /// Library statistics.
     pub library: GenerationStats,
     /// Whether the run is finished.
     pub finished: bool,

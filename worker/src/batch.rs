@@ -13,9 +13,7 @@ use strider_common::{Genome, Outcome, Scheme};
 /// One candidate to evaluate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Job {
-    /// Its genome.
     pub genome: Genome,
-    /// The run's scheme.
     pub scheme: Scheme,
     /// Its seed (ES draws from it).
     pub seed: CandidateSeed,

@@ -139,7 +139,6 @@ pub enum WorkerError {
     /// The coordinator's URL is malformed.
     #[error("coordinator URL {url}: {problem}")]
     BadUrl {
-        /// The URL.
         url: String,
         /// What is wrong.
         problem: String,

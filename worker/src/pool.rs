@@ -21,11 +21,9 @@ pub struct Trial<K> {
     pub key: K,
     /// What the run fixes.
     pub ctx: EvalContext,
-    /// The candidate.
     pub genome: Genome,
     /// Its run's scheme.
     pub scheme: Scheme,
-    /// Its seed.
     pub seed: CandidateSeed,
     /// The core it holds: released when the trial ends, before its answer is sent.
     pub core: OwnedSemaphorePermit,

@@ -95,10 +95,7 @@ pub enum Verdict {
         early: bool,
     },
     /// The robot fell.
-    Fell {
-        /// How.
-        how: FallKind,
-    },
+    Fell { how: FallKind },
     /// A blow-up or a non-finite value.
     Unstable,
     /// Upright to the end, but not forward (d <= 0).
@@ -312,7 +309,6 @@ impl Cause {
 pub struct Record {
     /// Candidate number (the run's random draw).
     pub candidate: u64,
-    /// Legs per side.
     pub legs_per_side: usize,
     /// What became of it.
     #[serde(flatten)]

@@ -20,7 +20,6 @@ pub const RULE_THRESHOLD: f64 = 0.2;
 
 /// One run's inputs to the summary.
 pub struct RunResult<'a> {
-    /// Its scheme.
     pub scheme: Scheme,
     /// Its library at the end.
     pub library: &'a Library,
@@ -33,7 +32,6 @@ pub struct RunResult<'a> {
 /// Mean and sample standard deviation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeanSd {
-    /// Mean.
     pub mean: f64,
     /// Sample standard deviation (0 for one value).
     pub sd: f64,
@@ -53,7 +51,6 @@ pub fn mean_sd(v: &[f64]) -> MeanSd {
 
 /// One scheme's part of the summary.
 pub struct SchemeSummary {
-    /// The scheme.
     pub scheme: Scheme,
     /// Runs of it.
     pub repeats: usize,

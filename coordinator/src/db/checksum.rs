@@ -15,25 +15,17 @@ use sqlx::Row;
 pub struct CandidateColumns<'a> {
     /// `run_id`.
     pub run: i64,
-    /// `number`.
     pub number: i64,
-    /// `generation`.
     pub generation: i64,
     /// `genome` (JSON).
     pub genome: &'a str,
     /// `outcome` (JSON).
     pub outcome: &'a str,
-    /// `kind`.
     pub kind: &'a str,
-    /// `fitness`.
     pub fitness: Option<f64>,
-    /// `cell`.
     pub cell: Option<i64>,
-    /// `placement`.
     pub placement: &'a str,
-    /// `shortfall`.
     pub shortfall: Option<&'a str>,
-    /// `standing`.
     pub standing: Option<f64>,
     /// `infeasible_placement`.
     pub infeasible_placement: Option<&'a str>,

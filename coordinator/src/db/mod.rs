@@ -59,15 +59,10 @@ use std::collections::HashMap;
 /// An applied candidate as stored (the `candidates` table).
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredCandidate {
-    /// Run id.
     pub run: i64,
-    /// Candidate number.
     pub number: CandidateNumber,
-    /// Its generation.
     pub generation: u32,
-    /// Its genome.
     pub genome: Genome,
-    /// Its outcome.
     pub outcome: Outcome,
     /// The columns that repeat the outcome for queries: `kind`, `fitness`, `cell`.
     pub columns: (String, Option<f64>, Option<i64>),
@@ -100,26 +95,19 @@ pub struct EliteFilter {
 /// An elite as stored, with the outcome that placed it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredElite {
-    /// Run id.
     pub run: i64,
-    /// Its cell.
     pub cell: CellIndex,
-    /// The candidate.
     pub candidate: CandidateNumber,
-    /// Its fitness.
     pub fitness: f64,
     /// Its genome, with the controller that earned the fitness.
     pub genome: Genome,
-    /// Its outcome.
     pub outcome: Outcome,
 }
 
 /// An infeasible elite as stored, with the outcome that placed it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredInfeasible {
-    /// Its cell.
     pub cell: CellIndex,
-    /// The candidate.
     pub candidate: CandidateNumber,
     /// What keeps it from the brief.
     pub shortfall: Shortfall,
@@ -127,7 +115,6 @@ pub struct StoredInfeasible {
     pub standing: f64,
     /// Its genome, with the controller it was evaluated with.
     pub genome: Genome,
-    /// Its outcome.
     pub outcome: Outcome,
 }
 

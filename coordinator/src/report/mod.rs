@@ -23,11 +23,8 @@ use svg::escape;
 
 /// One run as the report reads it.
 pub struct RunData {
-    /// Run id.
     pub id: i64,
-    /// Its scheme.
     pub scheme: Scheme,
-    /// Its repeat number.
     pub repeat: u32,
     /// Its library now.
     pub library: Library,
@@ -43,7 +40,6 @@ pub struct Picture {
     pub name: String,
     /// What it shows, in words.
     pub caption: String,
-    /// The SVG document.
     pub svg: String,
 }
 
@@ -277,7 +273,6 @@ fn formula(r: &Rule) -> String {
 
 /// What the report needs besides the runs.
 pub struct Inputs<'a> {
-    /// The experiment.
     pub experiment: &'a Experiment,
     /// Every run.
     pub runs: &'a [RunData],

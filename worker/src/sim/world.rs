@@ -39,7 +39,6 @@ pub struct JointSlot {
 
 /// A robot standing in a rapier world, ready to step.
 pub struct RobotWorld {
-    /// The rapier world.
     pub world: PhysicsWorld,
     /// The multibody holding the robot.
     pub multibody: MultibodyJointHandle,
