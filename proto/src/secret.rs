@@ -105,11 +105,21 @@ impl Secret {
     pub fn client_interceptor(
         &self,
     ) -> impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone {
-        let header = self.metadata();
-        move |mut r: Request<()>| {
-            r.metadata_mut().insert("authorization", header.clone());
-            Ok(r)
+        client_interceptor(Some(self))
+    }
+}
+
+/// A tonic interceptor for clients: sends `secret`, where there is one, with every call
+/// (a coordinator that wants none, such as `run`'s own, is called without).
+pub fn client_interceptor(
+    secret: Option<&Secret>,
+) -> impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone {
+    let header = secret.map(Secret::metadata);
+    move |mut r: Request<()>| {
+        if let Some(h) = &header {
+            r.metadata_mut().insert("authorization", h.clone());
         }
+        Ok(r)
     }
 }
 

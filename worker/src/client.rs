@@ -25,7 +25,6 @@ use strider_proto::v1::{
 };
 use strider_proto::PROTOCOL_VERSION;
 use tokio::sync::{mpsc, watch, Semaphore};
-use tonic::metadata::MetadataValue;
 use tonic::transport::Endpoint;
 use tonic::{Code, Request, Status};
 
@@ -171,7 +170,7 @@ pub async fn work(
     if let CoordinatorAddress::Url(url) = &opts.coordinator {
         endpoint(url)?;
     }
-    let authorization = opts.authorization.as_ref().map(Secret::metadata);
+    let authorize = strider_proto::secret::client_interceptor(opts.authorization.as_ref());
     // Shared across sessions, so trials of a lost session still running keep their cores.
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
     let pool = SimPool::with(opts.threads, opts.evaluator.function())
@@ -191,7 +190,7 @@ pub async fn work(
                         &opts,
                         &url,
                         &endpoint,
-                        authorization.clone(),
+                        authorize.clone(),
                         (&cores, &pool),
                         &mut shutdown,
                     )
@@ -292,7 +291,7 @@ async fn session(
     opts: &ConnectOptions,
     url: &str,
     endpoint: &Endpoint,
-    authorization: Option<MetadataValue<tonic::metadata::Ascii>>,
+    authorize: impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone,
     (cores, pool): (&Arc<Semaphore>, &SimPool<v1::CandidateId>),
     shutdown: &mut watch::Receiver<bool>,
 ) -> Result<End, WorkerError> {
@@ -300,12 +299,7 @@ async fn session(
         Ok(c) => c,
         Err(e) => return Ok(End::Lost(format!("connecting: {e}"), false)),
     };
-    let mut client = WorkerServiceClient::with_interceptor(channel, move |mut r: Request<()>| {
-        if let Some(a) = &authorization {
-            r.metadata_mut().insert("authorization", a.clone());
-        }
-        Ok(r)
-    });
+    let mut client = WorkerServiceClient::with_interceptor(channel, authorize);
     let slots = opts.threads.get() * 2;
     let (out, out_rx) = mpsc::channel::<WorkerMessage>(slots + 64);
     out.send(msg(worker_message::Kind::Hello(v1::Hello {

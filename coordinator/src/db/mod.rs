@@ -162,10 +162,11 @@ fn lock(path: &Path) -> Result<std::fs::File, DbError> {
         }
         Err(std::fs::TryLockError::Error(e)) => return Err(err(e)),
     }
-    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .map(|h| h.trim().to_string())
-        .unwrap_or_else(|_| "this host".into());
-    let me = format!("pid {} on {host}", std::process::id());
+    let me = format!(
+        "pid {} on {}",
+        std::process::id(),
+        strider_proto::process::host_name()
+    );
     file.set_len(0).map_err(err)?;
     std::io::Write::write_all(&mut file, me.as_bytes()).map_err(err)?;
     Ok(file)
@@ -268,10 +269,10 @@ impl Db {
             .connect_with(options)
             .await
             .map_err(open_error)?;
-        let applied: i64 = sqlx::query("SELECT COUNT(*) FROM _sqlx_migrations WHERE success")
-            .fetch_one(&pool)
-            .await?
-            .get(0);
+        let applied: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success")
+                .fetch_one(&pool)
+                .await?;
         let known = sqlx::migrate!("./migrations").iter().count() as i64;
         if applied < known {
             return Err(DbError::Corrupt(format!(
@@ -416,27 +417,25 @@ impl Db {
                 ));
             }
         }
-        let bad_cells: i64 = sqlx::query(
+        let bad_cells: i64 = sqlx::query_scalar(
             "SELECT COUNT(*) FROM cells l LEFT JOIN candidates c \
              ON c.run_id = l.run_id AND c.number = l.candidate \
              WHERE c.number IS NULL OR c.kind <> 'valid' OR c.cell <> l.cell OR c.fitness <> l.fitness",
         )
         .fetch_one(&self.pool)
-        .await?
-        .get(0);
+        .await?;
         if bad_cells > 0 {
             out.push(format!(
                 "{bad_cells} library cells name no candidate that is valid, in that cell, with that fitness"
             ));
         }
-        let bad_infeasible: i64 = sqlx::query(
+        let bad_infeasible: i64 = sqlx::query_scalar(
             "SELECT COUNT(*) FROM infeasible_cells l LEFT JOIN candidates c \
              ON c.run_id = l.run_id AND c.number = l.candidate \
              WHERE c.number IS NULL OR c.kind = 'valid' OR c.standing <> l.standing",
         )
         .fetch_one(&self.pool)
-        .await?
-        .get(0);
+        .await?;
         if bad_infeasible > 0 {
             out.push(format!(
                 "{bad_infeasible} infeasible library cells name no candidate that missed the brief with that standing"
@@ -444,13 +443,12 @@ impl Db {
         }
         // Every design that met the brief was placed in its cell, so each such cell has a
         // holder (a deleted cell row would leave the search a hole).
-        let empty_cells: i64 = sqlx::query(
+        let empty_cells: i64 = sqlx::query_scalar(
             "SELECT COUNT(*) FROM (SELECT DISTINCT run_id, cell FROM candidates WHERE kind = 'valid') v \
              WHERE NOT EXISTS (SELECT 1 FROM cells l WHERE l.run_id = v.run_id AND l.cell = v.cell)",
         )
         .fetch_one(&self.pool)
-        .await?
-        .get(0);
+        .await?;
         if empty_cells > 0 {
             out.push(format!(
                 "{empty_cells} cells hold no elite though a stored candidate that meets the brief lies in each"
@@ -538,10 +536,9 @@ impl Db {
 
     /// The id the next worker session gets (ids are never reused, across restarts too).
     pub async fn next_worker_id(&self) -> Result<u64, DbError> {
-        let max: Option<i64> = sqlx::query("SELECT MAX(id) FROM workers")
+        let max: Option<i64> = sqlx::query_scalar("SELECT MAX(id) FROM workers")
             .fetch_one(&self.pool)
-            .await?
-            .get(0);
+            .await?;
         Ok(max.map_or(1, |m| m as u64 + 1))
     }
 
@@ -604,7 +601,8 @@ impl Db {
         })
         .fetch_one(&self.pool)
         .await?;
-        let (busy, log, copied): (i64, i64, i64) = (row.get(0), row.get(1), row.get(2));
+        let (busy, log, copied): (i64, i64, i64) =
+            (row.get("busy"), row.get("log"), row.get("checkpointed"));
         Ok((busy == 0).then_some(log - copied))
     }
 
@@ -658,10 +656,9 @@ impl Db {
 
     /// `PRAGMA integrity_check`: "ok" for a sound file.
     pub async fn integrity_check(&self) -> Result<String, DbError> {
-        Ok(sqlx::query("PRAGMA integrity_check")
+        Ok(sqlx::query_scalar("PRAGMA integrity_check")
             .fetch_one(&self.pool)
-            .await?
-            .get(0))
+            .await?)
     }
 }
 

@@ -82,10 +82,11 @@ impl Default for ServeOptions {
 /// The URL a worker on another machine uses to reach `addr`.
 pub fn worker_url(addr: SocketAddr) -> String {
     if addr.ip().is_unspecified() {
-        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
-            .map(|h| h.trim().to_string())
-            .unwrap_or_else(|_| "localhost".into());
-        format!("http://{host}:{}", addr.port())
+        format!(
+            "http://{}:{}",
+            strider_proto::process::host_name(),
+            addr.port()
+        )
     } else {
         format!("http://{addr}")
     }
