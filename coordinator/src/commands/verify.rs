@@ -87,10 +87,10 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
             .collect();
         let Some(outcomes) = simulate_again(&experiment, &chosen, args.workers).await? else {
             eprintln!(
-                "warning: {} stored candidates not simulated again: this strider-coordinator was built without the simulator (cargo feature `simulator`)",
+                "warning: {} stored candidates not simulated again: this strider-coordinator was built without the simulator (cargo feature `simulator`); run verify where a worker is built, or pass --sample 0",
                 chosen.len()
             );
-            return conclude(path, &verdict.problems);
+            return conclude(path, &verdict.problems, Some(chosen.len()));
         };
         let mut differ = 0;
         for ((c, _), o) in chosen.iter().zip(&outcomes) {
@@ -112,13 +112,24 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
             chosen.len() - differ
         );
     }
-    conclude(path, &verdict.problems)
+    conclude(path, &verdict.problems, None)
 }
 
-/// Prints the verdict.
-fn conclude(path: &Path, problems: &[String]) -> anyhow::Result<Exit> {
+/// Prints the verdict; `not_simulated` counts the sample left unchecked for want of a
+/// simulator, which the verdict then names.
+fn conclude(
+    path: &Path,
+    problems: &[String],
+    not_simulated: Option<usize>,
+) -> anyhow::Result<Exit> {
     if problems.is_empty() {
-        outln!("{} agrees with itself", path.display());
+        match not_simulated {
+            None => outln!("{} agrees with itself", path.display()),
+            Some(n) => outln!(
+                "{} agrees with itself in its rows and replay; {n} sampled candidates were not simulated again (no simulator in this build)",
+                path.display()
+            ),
+        }
         Ok(Exit::Success)
     } else {
         for p in problems {
