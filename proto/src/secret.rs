@@ -100,17 +100,11 @@ impl Secret {
             .parse()
             .expect("a secret is one line of visible characters")
     }
-
-    /// A tonic interceptor for clients: sends this secret with every call.
-    pub fn client_interceptor(
-        &self,
-    ) -> impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone {
-        client_interceptor(Some(self))
-    }
 }
 
-/// A tonic interceptor for clients: sends `secret`, where there is one, with every call
-/// (a coordinator that wants none, such as `run`'s own, is called without).
+/// A tonic interceptor for clients: sends `secret` with every call. With none the calls
+/// go without, and the coordinator refuses them saying the secret is missing, which is
+/// what a worker started without one should hear.
 pub fn client_interceptor(
     secret: Option<&Secret>,
 ) -> impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone {

@@ -5,7 +5,7 @@ use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Duration;
 use strider_proto::outln;
-use strider_proto::secret::Secret;
+use strider_proto::secret::{client_interceptor, Secret};
 use strider_proto::v1::client_service_client::ClientServiceClient;
 
 /// Arguments of `status`.
@@ -32,7 +32,8 @@ pub async fn execute(args: StatusArgs) -> anyhow::Result<Exit> {
         .connect()
         .await
         .with_context(|| format!("connecting to {url}"))?;
-    let mut client = ClientServiceClient::with_interceptor(channel, secret.client_interceptor());
+    let mut client =
+        ClientServiceClient::with_interceptor(channel, client_interceptor(Some(&secret)));
     let p = client
         .get_progress(strider_proto::v1::ProgressRequest {
             protocol_version: strider_proto::PROTOCOL_VERSION,

@@ -27,7 +27,6 @@ pub struct CandidateColumns<'a> {
     pub placement: &'a str,
     pub shortfall: Option<&'a str>,
     pub standing: Option<f64>,
-    /// `infeasible_placement`.
     pub infeasible_placement: Option<&'a str>,
 }
 
