@@ -57,6 +57,15 @@ impl Side {
     }
 }
 
+/// The servo's derivative time T_v, s: every drive's velocity gain is the encoded damping
+/// plus `stiffness * SERVO_DERIVATIVE_TIME`, a PD position servo whose derivative time is
+/// T_v + d / k (docs/model.md section 6). With the encoded damping alone (1 to 40 Nms/rad
+/// against 2000 to 6000 Nm/rad) a leg rings at its natural frequency with a damping ratio
+/// of a few hundredths; the simulator used to add this damping silently (its backward-Euler
+/// spring at a 1/30 s step adds k dt), so the value keeps the damping the designs were found
+/// with, now the same at every physics step and written in the URDF.
+pub const SERVO_DERIVATIVE_TIME: f64 = 1.0 / 30.0;
+
 /// A joint's drive after the strength multiplier.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointDrive {
@@ -68,6 +77,21 @@ pub struct JointDrive {
     pub max_torque: f64,
     /// Speed limit wmax, rad/s (sets the gait amplitude).
     pub max_speed: f64,
+}
+
+impl JointDrive {
+    /// The servo's velocity gain, Nms/rad: the encoded damping plus the velocity loop's
+    /// `stiffness * SERVO_DERIVATIVE_TIME`. The drive's torque is
+    /// `clamp(k (q* - q) - servo_damping * qdot, -max_torque, max_torque)`.
+    pub fn servo_damping(&self) -> f64 {
+        self.damping + self.stiffness * SERVO_DERIVATIVE_TIME
+    }
+
+    /// The drive's torque at angle `q` and speed `qdot` toward `target`, clamped to the limit.
+    pub fn torque(&self, target: f64, q: f64, qdot: f64) -> f64 {
+        (self.stiffness * (target - q) - self.servo_damping() * qdot)
+            .clamp(-self.max_torque, self.max_torque)
+    }
 }
 
 /// One link of one leg.

@@ -35,7 +35,7 @@ impl Default for RunSettings {
             generations: 4000,
             trial_seconds: 5.0,
             control_hz: 30.0,
-            physics_substeps: 1,
+            physics_substeps: 8,
             es_iterations: 20,
         }
     }
@@ -71,6 +71,12 @@ pub struct TrialLimits {
     /// smaller of this and `max_tilt_degrees` applies): a robot past it is falling, not
     /// walking on, though it may not pass `max_tilt_degrees` before the window ends.
     pub upright_after_max_tilt_degrees: f64,
+    /// Largest distance a foot may slide on the ground over the trial (mean over the feet)
+    /// per metre walked: past it the feet skate (docs/model.md section 6).
+    pub max_foot_slip_ratio: f64,
+    /// Largest share of the feet's forward travel made within the ground clearance
+    /// (3 cm): past it the feet shuffle along the ground instead of stepping.
+    pub max_low_forward_share: f64,
 }
 
 impl Default for TrialLimits {
@@ -81,6 +87,8 @@ impl Default for TrialLimits {
             only_feet_on_ground: true,
             upright_after_seconds: 1.0,
             upright_after_max_tilt_degrees: 20.0,
+            max_foot_slip_ratio: 0.5,
+            max_low_forward_share: 0.4,
         }
     }
 }
@@ -295,6 +303,20 @@ impl Experiment {
         check_real("run.trial_seconds", r.trial_seconds, 0.1, 600.0)?;
         check_real("run.control_hz", r.control_hz, 1.0, 1000.0)?;
         check_int("run.physics_substeps", r.physics_substeps, 1, 64)?;
+        // The drive's splitting (explicit stiffness, implicit damping) is stable for any
+        // step up to twice the servo's derivative time (docs/model.md section 6).
+        let longest = 2.0 * crate::body_plan::SERVO_DERIVATIVE_TIME;
+        if r.physics_dt() > longest * (1.0 + 1e-12) {
+            return Err(invalid(
+                "run.physics_substeps",
+                format!(
+                    "gives a physics step of {:.4} s (control_hz {} x physics_substeps {}); the joint drives need one of at most {longest:.4} s: raise physics_substeps",
+                    r.physics_dt(),
+                    r.control_hz,
+                    r.physics_substeps
+                ),
+            ));
+        }
         check_int("run.es_iterations", r.es_iterations, 1, 10_000)?;
         check_real(
             "trial.max_tilt_degrees",
@@ -319,6 +341,18 @@ impl Experiment {
             self.trial.upright_after_max_tilt_degrees,
             1.0,
             180.0,
+        )?;
+        check_real(
+            "trial.max_foot_slip_ratio",
+            self.trial.max_foot_slip_ratio,
+            0.0,
+            1000.0,
+        )?;
+        check_real(
+            "trial.max_low_forward_share",
+            self.trial.max_low_forward_share,
+            0.0,
+            1.0,
         )?;
         check_real(
             "search.feasible_parent_share",
@@ -425,6 +459,22 @@ mod tests {
         assert_eq!(e.run.generations, 4000);
         let seeds: Vec<u64> = e.runs().iter().map(|r| r.seed.0).collect();
         assert_eq!(seeds, [5, 6]);
+    }
+
+    #[test]
+    fn a_physics_step_the_drives_cannot_take_is_refused_naming_the_fix() {
+        let e = err(&format!(
+            "{MINIMAL}[run]\ncontrol_hz = 10.0\nphysics_substeps = 1\n"
+        ));
+        assert!(
+            e.contains("`run.physics_substeps`") && e.contains("raise physics_substeps"),
+            "{e}"
+        );
+        // 15 Hz is the slowest the drives take.
+        assert!(Experiment::from_toml(&format!(
+            "{MINIMAL}[run]\ncontrol_hz = 15.0\nphysics_substeps = 1\n"
+        ))
+        .is_ok());
     }
 
     #[test]

@@ -29,7 +29,9 @@ pub use brief::DesignBrief;
 pub use experiment::Experiment;
 pub use features::{CellIndex, FeatureGrid, Features};
 pub use genome::{Controller, Genome, Morphology};
-pub use outcome::{Fall, InvalidReason, Outcome, Shortfall, Standing, TrialStats};
+pub use outcome::{
+    Fall, GaitStats, InvalidReason, Outcome, Shortfall, Skate, Standing, TrialStats,
+};
 pub use pose::StartPose;
 pub use precheck::EvalContext;
 pub use rng::CandidateKey;

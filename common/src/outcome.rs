@@ -7,7 +7,7 @@ use crate::genome::Controller;
 use serde::{Deserialize, Serialize};
 
 /// Figures of one completed trial.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TrialStats {
     /// Forward (x) displacement of the robot's centre of mass, m.
     pub distance: f64,
@@ -21,6 +21,25 @@ pub struct TrialStats {
     pub cost_of_transport: f64,
     /// Simulated time, s.
     pub duration: f64,
+    /// How the gait steps (0 for outcomes stored before it was measured).
+    #[serde(default)]
+    pub gait: GaitStats,
+}
+
+/// How a completed trial's feet and motors did, over the trial (docs/model.md section 6).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GaitStats {
+    /// The largest torque any joint received on any physics step, as a multiple of its
+    /// motor's limit (1 at most, to rounding, but for a joint within its limit whose speed
+    /// changed much within a step).
+    pub peak_torque_ratio: f64,
+    /// Ground distance a foot slid while on the ground, mean over the feet, m.
+    pub foot_slip: f64,
+    /// Share of the feet's forward travel made within the ground clearance (a foot that
+    /// skates forward instead of stepping).
+    pub low_forward_share: f64,
+    /// Share of the trial a foot is on the ground, mean over the feet.
+    pub duty_factor: f64,
 }
 
 /// Why a trial was stopped and its candidate declared invalid.
@@ -49,6 +68,12 @@ pub enum InvalidReason {
     Fell {
         /// What happened.
         fall: Fall,
+    },
+    /// The feet skated instead of stepping (checked over the trial once it ran to the end;
+    /// limits: the experiment's `[trial]` table).
+    Skating {
+        /// How.
+        skate: Skate,
     },
     /// Parts touch already in the start pose (a check before simulating, like mass and
     /// height): two parts not joined by a hinge, or a part other than a lower leg and the
@@ -83,6 +108,7 @@ impl std::fmt::Display for InvalidReason {
             InvalidReason::NonFinite { what } => write!(f, "non-finite {what}"),
             InvalidReason::BlowUp { speed } => write!(f, "simulation blew up (speed {speed:.1})"),
             InvalidReason::Fell { fall } => write!(f, "fell: {fall}"),
+            InvalidReason::Skating { skate } => write!(f, "skated: {skate}"),
             InvalidReason::StartPoseContact { first, second } => {
                 write!(f, "{first} and {second} touch in the start pose")
             }
@@ -92,6 +118,43 @@ impl std::fmt::Display for InvalidReason {
             InvalidReason::EvaluationFailed { attempts, last } => {
                 write!(f, "evaluation failed {attempts} times (last: {last})")
             }
+        }
+    }
+}
+
+/// How a robot's feet skated (docs/model.md section 6, "Feet that step").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "how", rename_all = "snake_case")]
+pub enum Skate {
+    /// The feet slid along the ground while on it.
+    Slid {
+        /// Distance a foot slid on the ground (mean over the feet) per metre walked.
+        ratio: f64,
+        /// The limit.
+        limit: f64,
+    },
+    /// The feet travelled forward within the ground clearance instead of stepping over it.
+    Shuffled {
+        /// Share of the feet's forward travel made within the clearance.
+        share: f64,
+        /// The limit.
+        limit: f64,
+    },
+}
+
+impl std::fmt::Display for Skate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Skate::Slid { ratio, limit } => write!(
+                f,
+                "its feet slid {ratio:.2} m on the ground per metre walked (limit {limit:.2})"
+            ),
+            Skate::Shuffled { share, limit } => write!(
+                f,
+                "{:.0} % of its feet's forward travel was along the ground (limit {:.0} %)",
+                100.0 * share,
+                100.0 * limit
+            ),
         }
     }
 }
@@ -143,6 +206,8 @@ pub enum Shortfall {
     Speed,
     /// Ran to the end upright, not forward.
     Backward,
+    /// Ran to the end upright, its feet skating instead of stepping.
+    Skating,
     /// Fell (tilted, sank, or dragged a part on the ground).
     Fell,
     /// Two of its parts touched.
@@ -153,9 +218,10 @@ pub enum Shortfall {
 
 impl Shortfall {
     /// Every shortfall, nearest the brief first.
-    pub const ALL: [Shortfall; 5] = [
+    pub const ALL: [Shortfall; 6] = [
         Shortfall::Speed,
         Shortfall::Backward,
+        Shortfall::Skating,
         Shortfall::Fell,
         Shortfall::SelfContact,
         Shortfall::Unstable,
@@ -166,6 +232,7 @@ impl Shortfall {
         match self {
             Shortfall::Speed => "speed",
             Shortfall::Backward => "backward",
+            Shortfall::Skating => "skating",
             Shortfall::Fell => "fell",
             Shortfall::SelfContact => "self_contact",
             Shortfall::Unstable => "unstable",
@@ -328,6 +395,7 @@ impl Outcome {
                 | InvalidReason::NoForwardProgress { .. } => Standing::NotSimulated,
                 InvalidReason::SelfContact { .. }
                 | InvalidReason::Fell { .. }
+                | InvalidReason::Skating { .. }
                 | InvalidReason::NonFinite { .. }
                 | InvalidReason::BlowUp { .. } => Standing::EndedEarly { at_time: *at_time },
             },
@@ -347,6 +415,7 @@ impl Outcome {
             Outcome::Invalid { reason, .. } => match reason {
                 InvalidReason::NoForwardProgress { .. } => Some(Shortfall::Backward),
                 InvalidReason::Fell { .. } => Some(Shortfall::Fell),
+                InvalidReason::Skating { .. } => Some(Shortfall::Skating),
                 InvalidReason::SelfContact { .. } => Some(Shortfall::SelfContact),
                 InvalidReason::NonFinite { .. } | InvalidReason::BlowUp { .. } => {
                     Some(Shortfall::Unstable)
@@ -382,6 +451,7 @@ mod tests {
             mass: 60.0,
             cost_of_transport: 1.0,
             duration: 5.0,
+            ..Default::default()
         }
     }
 

@@ -8,7 +8,7 @@
 //! the URDF convention; every leg link keeps the model's own link frame (origin at its
 //! joint, the tube along +z), so the numbers match `inspect` and the trace.
 
-use crate::body_plan::{BodyPlan, LinkPlan};
+use crate::body_plan::{BodyPlan, LinkPlan, SERVO_DERIVATIVE_TIME};
 use crate::mass::MassProperties;
 use crate::xml::escape;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -151,8 +151,12 @@ pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
          has no angle stops, so position limits are +-pi; a speed limit under {MIN_VELOCITY_LIMIT}\n     \
          rad/s is written as {MIN_VELOCITY_LIMIT}, so that no joint is frozen. Spring stiffness and the\n     \
          model's speed limit per joint are in each joint's comment (URDF has no field for\n     \
-         them). The start pose (base pose and joint angles) is in NAME.start_pose.json. -->",
-        plan.payload_mass
+         them). Each joint is a position servo: torque = clamp(k (q* - q) - D qdot, +-effort),\n     \
+         k the dynamics spring_stiffness (Gazebo's attribute), D the dynamics damping (the\n     \
+         encoded damping plus k x {T_V:.6} s, the servo's velocity loop; docs/model.md\n     \
+         section 6). The start pose (base pose and joint angles) is in NAME.start_pose.json. -->",
+        plan.payload_mass,
+        T_V = SERVO_DERIVATIVE_TIME,
     );
     let _ = writeln!(out, r#"<robot name="{}">"#, escape(name));
 
@@ -213,16 +217,17 @@ fn write_joint(
     let t = origin.translation.vector;
     let _ = writeln!(
         out,
-        r#"  <!-- stiffness {:.6} Nm/rad, speed limit {} rad/s -->
+        r#"  <!-- stiffness {:.6} Nm/rad, encoded damping {} Nms/rad, speed limit {} rad/s -->
   <joint name="{}" type="revolute">
     <parent link="{parent}"/>
     <child link="{}"/>
     <origin xyz="{} {} {}" rpy="{} {} {}"/>
     <axis xyz="{} {} {}"/>
     <limit lower="{}" upper="{}" effort="{}" velocity="{}"/>
-    <dynamics damping="{}" friction="0"/>
+    <dynamics damping="{}" friction="0" spring_stiffness="{}"/>
   </joint>"#,
         d.stiffness,
+        d.damping,
         d.max_speed,
         joint_name(leg, link),
         link_name(leg, link),
@@ -239,7 +244,8 @@ fn write_joint(
         std::f64::consts::PI,
         d.max_torque,
         d.max_speed.max(MIN_VELOCITY_LIMIT),
-        d.damping,
+        d.servo_damping(),
+        d.stiffness,
     );
 }
 

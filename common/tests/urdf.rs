@@ -57,6 +57,11 @@ fn check(genome: &Genome) {
                 part.drive.max_speed.max(MIN_VELOCITY_LIMIT)
             );
             assert!(j.limit.velocity > 0.0, "no joint is frozen");
+            // The servo's whole velocity gain: what a second engine needs to drive the
+            // joint by the same law (docs/model.md section 6).
+            let damping = j.dynamics.as_ref().map(|d| d.damping);
+            assert_eq!(damping, Some(part.drive.servo_damping()));
+            assert!(part.drive.servo_damping() > part.drive.damping);
             assert_eq!(j.child.link, link_name(l, k));
         }
     }

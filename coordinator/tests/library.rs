@@ -23,6 +23,7 @@ fn valid(fitness: f64, cell: u32) -> Outcome {
             mass: 60.0,
             cost_of_transport: 1.0 / fitness,
             duration: 5.0,
+            ..Default::default()
         },
         features: Features([2.4, 60.0, 3.0, 0.005, 0.0, 0.0]),
         cell: CellIndex(cell),

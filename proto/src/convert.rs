@@ -8,13 +8,17 @@ use strider_common::features::{CellIndex, Features, FEATURE_COUNT};
 use strider_common::genome::{GenomeError, ParamVector};
 use strider_common::rng::{CandidateKey, CandidateNumber};
 use strider_common::{
-    Controller, Fall, Genome, InvalidReason, Morphology, Outcome, Scheme, TrialStats,
+    Controller, Fall, GaitStats, Genome, InvalidReason, Morphology, Outcome, Scheme, Skate,
+    TrialStats,
 };
 
 /// `Invalid.quantity` of a REASON_FELL: how the robot fell.
 const FALL_TILTED: &str = "tilted";
 const FALL_SANK: &str = "sank";
 const FALL_DRAGGED: &str = "dragged";
+/// `Invalid.quantity` of a REASON_SKATING: how the feet skated.
+const SKATE_SLID: &str = "slid";
+const SKATE_SHUFFLED: &str = "shuffled";
 
 /// A message that does not describe a valid model value; names the field.
 #[derive(Debug, thiserror::Error)]
@@ -124,6 +128,10 @@ fn stats_to_wire(s: &TrialStats) -> v1::TrialStats {
         mass: s.mass,
         cost_of_transport: s.cost_of_transport,
         duration: s.duration,
+        peak_torque_ratio: s.gait.peak_torque_ratio,
+        foot_slip: s.gait.foot_slip,
+        low_forward_share: s.gait.low_forward_share,
+        duty_factor: s.gait.duty_factor,
     }
 }
 
@@ -136,6 +144,12 @@ fn stats_from_wire(field: &str, s: &v1::TrialStats) -> Result<TrialStats, WireEr
         mass: f("mass", s.mass)?,
         cost_of_transport: f("cost_of_transport", s.cost_of_transport)?,
         duration: f("duration", s.duration)?,
+        gait: GaitStats {
+            peak_torque_ratio: f("peak_torque_ratio", s.peak_torque_ratio)?,
+            foot_slip: f("foot_slip", s.foot_slip)?,
+            low_forward_share: f("low_forward_share", s.low_forward_share)?,
+            duty_factor: f("duty_factor", s.duty_factor)?,
+        },
     })
 }
 
@@ -211,6 +225,16 @@ impl From<&Outcome> for v1::Outcome {
                                 w.first_part = part.clone();
                             }
                         }
+                    }
+                    InvalidReason::Skating { skate } => {
+                        w.reason = Reason::Skating.into();
+                        let (quantity, value, limit) = match skate {
+                            Skate::Slid { ratio, limit } => (SKATE_SLID, ratio, limit),
+                            Skate::Shuffled { share, limit } => (SKATE_SHUFFLED, share, limit),
+                        };
+                        w.quantity = quantity.into();
+                        w.value = *value;
+                        w.limit = *limit;
                     }
                     InvalidReason::StartPoseContact { first, second } => {
                         w.reason = Reason::StartPoseContact.into();
@@ -353,6 +377,30 @@ impl TryFrom<&v1::Outcome> for Outcome {
                             }
                         },
                     },
+                    Ok(Reason::Skating) => {
+                        let value = finite("outcome.invalid.value", i.value)?;
+                        let limit = finite("outcome.invalid.limit", i.limit)?;
+                        InvalidReason::Skating {
+                            skate: match i.quantity.as_str() {
+                                SKATE_SLID => Skate::Slid {
+                                    ratio: value,
+                                    limit,
+                                },
+                                SKATE_SHUFFLED => Skate::Shuffled {
+                                    share: value,
+                                    limit,
+                                },
+                                other => {
+                                    return Err(wire_err(
+                                        "outcome.invalid.quantity",
+                                        format!(
+                                            "{other:?} is not a way of skating; expected {SKATE_SLID:?} or {SKATE_SHUFFLED:?}"
+                                        ),
+                                    ))
+                                }
+                            },
+                        }
+                    }
                     Ok(Reason::StartPoseContact) => InvalidReason::StartPoseContact {
                         first: i.first_part.clone(),
                         second: i.second_part.clone(),

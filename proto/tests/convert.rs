@@ -29,6 +29,12 @@ fn stats() -> TrialStats {
         mass: 61.2,
         cost_of_transport: 0.37,
         duration: 5.0,
+        gait: strider_common::GaitStats {
+            peak_torque_ratio: 0.97,
+            foot_slip: 0.12,
+            low_forward_share: 0.3,
+            duty_factor: 0.55,
+        },
     }
 }
 
@@ -91,6 +97,26 @@ fn outcomes() -> Vec<Outcome> {
             reason: InvalidReason::NoForwardProgress { distance: -0.2 },
             at_time: 5.0,
             controller: Controller::static_default(),
+        },
+        Outcome::Invalid {
+            reason: InvalidReason::Skating {
+                skate: strider_common::Skate::Slid {
+                    ratio: 0.73,
+                    limit: 0.5,
+                },
+            },
+            at_time: 5.0,
+            controller: c,
+        },
+        Outcome::Invalid {
+            reason: InvalidReason::Skating {
+                skate: strider_common::Skate::Shuffled {
+                    share: 0.55,
+                    limit: 0.4,
+                },
+            },
+            at_time: 5.0,
+            controller: c,
         },
     ]
 }

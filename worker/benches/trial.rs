@@ -29,7 +29,7 @@ fn walker(n: usize) -> Genome {
 
 fn trials(c: &mut Criterion) {
     let ctx = EvalContext::paper();
-    let mut group = c.benchmark_group("trial_static_30hz");
+    let mut group = c.benchmark_group("trial_static");
     group.throughput(Throughput::Elements(1));
     for n in [2, 3, 4, 6] {
         let g = walker(n);

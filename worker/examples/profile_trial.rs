@@ -1,5 +1,5 @@
 //! Runs MAX's STATIC trial N times (default 10), for profilers:
-//! `valgrind --tool=callgrind target/release/examples/profile_trial 10`.
+//! `valgrind --tool=callgrind target/release/examples/profile_trial 10 [SUBSTEPS]`.
 
 use std::path::Path;
 use strider_common::EvalContext;
@@ -12,7 +12,11 @@ fn main() {
         .map_or(10, |a| a.parse().expect("a count"));
     let g = Genome::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
         .expect("MAX loads");
-    let ctx = EvalContext::paper();
+    let mut ctx = EvalContext::paper();
+    // An optional second argument: physics steps per control step.
+    if let Some(s) = std::env::args().nth(2) {
+        ctx.settings.physics_substeps = s.parse().expect("a number of substeps");
+    }
     let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
     for _ in 0..n {
         std::hint::black_box(run_trial(

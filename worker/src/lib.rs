@@ -6,6 +6,7 @@ pub mod client;
 pub mod commands;
 pub mod es;
 pub mod evaluate;
+pub mod fidelity;
 pub mod pool;
 pub mod replay;
 pub mod sim;

@@ -100,6 +100,8 @@ pub enum Verdict {
     Unstable,
     /// Upright to the end, but not forward (d <= 0).
     Backward,
+    /// Upright and forward to the end, its feet skating instead of stepping.
+    Skated,
     /// Upright and forward, below the brief's speed.
     TooSlow,
     /// Met the whole brief.
@@ -131,6 +133,7 @@ impl Verdict {
         v.extend([
             Verdict::Unstable,
             Verdict::Backward,
+            Verdict::Skated,
             Verdict::TooSlow,
             Verdict::Passed,
         ]);
@@ -152,7 +155,10 @@ impl Verdict {
 
     /// Whether the robot ran the whole trial upright.
     pub fn upright_to_the_end(self) -> bool {
-        matches!(self, Verdict::Backward | Verdict::TooSlow | Verdict::Passed)
+        matches!(
+            self,
+            Verdict::Backward | Verdict::Skated | Verdict::TooSlow | Verdict::Passed
+        )
     }
 
     /// A label for tables and CSV.
@@ -176,6 +182,7 @@ impl Verdict {
             ),
             Verdict::Unstable => "blow-up / non-finite".into(),
             Verdict::Backward => "backward".into(),
+            Verdict::Skated => "skated".into(),
             Verdict::TooSlow => "too slow".into(),
             Verdict::Passed => "passed".into(),
         }
@@ -218,6 +225,7 @@ impl Verdict {
                 | InvalidReason::BlowUp { .. }
                 | InvalidReason::EvaluationFailed { .. } => Verdict::Unstable,
                 InvalidReason::NoForwardProgress { .. } => Verdict::Backward,
+                InvalidReason::Skating { .. } => Verdict::Skated,
             },
         }
     }
@@ -411,7 +419,9 @@ fn cause(verdict: Verdict, sweep: &GaitSweep, brief_distance: f64) -> Option<Cau
     let first =
         |candidates: &[(bool, Cause)]| candidates.iter().find(|(holds, _)| *holds).map(|(_, c)| *c);
     match verdict {
+        // No cause is computed for skating: it needs the trial's foot contacts.
         Verdict::Passed
+        | Verdict::Skated
         | Verdict::RejectedMass
         | Verdict::RejectedHeight
         | Verdict::RejectedStartPoseContact => None,

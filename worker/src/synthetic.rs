@@ -55,6 +55,7 @@ pub fn instant_outcome(
                     mass,
                     cost_of_transport: 1.0,
                     duration: 5.0,
+                    ..Default::default()
                 }),
                 controller: genome.controller,
             }
@@ -82,6 +83,7 @@ pub fn instant_outcome(
             mass,
             cost_of_transport: 1.0 / fitness,
             duration: 1.0,
+            ..Default::default()
         },
         features,
         cell,

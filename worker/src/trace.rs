@@ -1,5 +1,6 @@
-//! A trial trace as CSV: one row per control step with the body pose and every joint's
-//! angle and torque, for plots and replays.
+//! A trial trace as CSV: one row per control step (at its end) with the body pose and
+//! every joint's angle, torque and the target it was driven toward over the step, for plots
+//! and replays (a second engine replays the targets: tests/python/pybullet_replay.py).
 
 use crate::sim::trial::{Observer, Sample};
 use std::io::{self, Write};
@@ -25,6 +26,12 @@ impl<W: Write> CsvTrace<W> {
             let side = if leg.side == Side::Right { "r" } else { "l" };
             for k in 0..leg.links.len() {
                 header.push_str(&format!(",{side}{}_tau{k}", leg.index));
+            }
+        }
+        for leg in &plan.legs {
+            let side = if leg.side == Side::Right { "r" } else { "l" };
+            for k in 0..leg.links.len() {
+                header.push_str(&format!(",{side}{}_target{k}", leg.index));
             }
         }
         writeln!(out, "{header}")?;
@@ -53,6 +60,9 @@ impl<W: Write> Observer for CsvTrace<W> {
         );
         for v in s.angles.iter().chain(s.torques) {
             row.push_str(&format!(",{v:.5}"));
+        }
+        for v in s.targets {
+            row.push_str(&format!(",{v:.7}"));
         }
         if let Err(e) = writeln!(self.out, "{row}") {
             self.error = Some(e);

@@ -517,3 +517,130 @@ fn parts_touching_in_the_start_pose_are_rejected_before_simulating() {
         None
     );
 }
+
+/// MAX's STATIC trial with `settings` and `limits` changed by `tune`.
+fn max_static(
+    tune: impl Fn(&mut strider_common::experiment::RunSettings, &mut TrialLimits),
+    plan_tune: impl Fn(&mut BodyPlan),
+) -> TrialEnd {
+    let c = ctx();
+    let (mut settings, mut limits) = (c.settings, c.limits);
+    tune(&mut settings, &mut limits);
+    let mut plan = BodyPlan::new(&max().morphology, c.brief.payload);
+    plan_tune(&mut plan);
+    run_trial(
+        &plan,
+        &Controller::static_default(),
+        &settings,
+        &limits,
+        &mut (),
+    )
+}
+
+#[test]
+fn no_joint_receives_more_than_its_motor_limit_on_any_step() {
+    // MAX at full strength and with weaker motors: the weak ones spend much of the stride
+    // at their limit (the peak reaches it), and on no physics step may any joint receive
+    // more (a foot strike would push a joint driven by its law past the limit; that step is
+    // taken again with the joint held at it). The peak is measured over completed trials.
+    let mut completed = 0;
+    let mut reached = false;
+    for strength in [1.0, 0.6, 0.45, 0.3] {
+        for substeps in [4, 8] {
+            let end = max_static(
+                |s, _| s.physics_substeps = substeps,
+                |plan| {
+                    for leg in &mut plan.legs {
+                        for link in &mut leg.links {
+                            link.drive.max_torque *= strength;
+                        }
+                    }
+                },
+            );
+            let TrialEnd::Completed(stats) = end else {
+                println!("{strength} x torque, {substeps} substeps: not completed: {end:?}");
+                continue;
+            };
+            completed += 1;
+            let peak = stats.gait.peak_torque_ratio;
+            println!("{strength} x torque, {substeps} substeps: peak {peak:.6} of the limit");
+            assert!(
+                peak <= 1.0 + strider_worker::sim::drive::LIMIT_ROUNDING,
+                "{strength} x torque, {substeps} substeps: a joint received {peak} x its limit"
+            );
+            reached |= strength < 1.0 && peak > 0.999;
+        }
+    }
+    assert!(completed >= 4, "only {completed} trials completed");
+    assert!(reached, "no weakened MAX reached its torque limit");
+}
+
+#[test]
+fn the_drive_is_the_same_at_every_step_so_the_walk_converges() {
+    // The servo's damping no longer comes from the integrator: halving the step moves
+    // MAX's distance and energy by a few per cent (with rapier's spring damping, k dt,
+    // the energy grew by 48 % from 30 to 240 Hz).
+    let figures = |substeps| {
+        let TrialEnd::Completed(s) = max_static(|s, _| s.physics_substeps = substeps, |_| {})
+        else {
+            panic!("MAX fell at {substeps} substeps")
+        };
+        (s.distance, s.energy)
+    };
+    let (d8, e8) = figures(8);
+    let (d16, e16) = figures(16);
+    println!("8 substeps: {d8:.3} m, {e8:.1} J; 16: {d16:.3} m, {e16:.1} J");
+    assert!((d8 - d16).abs() < 0.05 * d16, "distance {d8} vs {d16}");
+    assert!((e8 - e16).abs() < 0.05 * e16, "energy {e8} vs {e16}");
+}
+
+#[test]
+fn feet_that_skate_past_the_limits_are_invalid_with_the_skating_reason() {
+    // MAX lifts its feet: its figures are those of a walker, inside the defaults.
+    let TrialEnd::Completed(s) = max_static(|_, _| {}, |_| {}) else {
+        panic!("MAX fell")
+    };
+    let g = s.gait;
+    println!("MAX: {g:?}");
+    assert!(g.duty_factor > 0.2 && g.duty_factor < 0.8, "{g:?}");
+    assert!(
+        g.foot_slip > 0.0 && g.foot_slip < 0.25 * s.distance,
+        "{g:?}"
+    );
+    assert!(
+        g.low_forward_share > 0.0 && g.low_forward_share < 0.25,
+        "{g:?}"
+    );
+    // Limits below its figures make the same walk a skater, saying how.
+    let shuffled = max_static(
+        |_, l| l.max_low_forward_share = 0.5 * g.low_forward_share,
+        |_| {},
+    );
+    match shuffled {
+        TrialEnd::Stopped {
+            reason:
+                InvalidReason::Skating {
+                    skate: strider_common::Skate::Shuffled { share, limit },
+                },
+            at_time,
+        } => {
+            assert_eq!(share, g.low_forward_share);
+            assert_eq!(limit, 0.5 * g.low_forward_share);
+            assert_eq!(at_time, s.duration);
+        }
+        other => panic!("{other:?}"),
+    }
+    let slid = max_static(|_, l| l.max_foot_slip_ratio = 0.01, |_| {});
+    assert!(
+        matches!(
+            slid,
+            TrialEnd::Stopped {
+                reason: InvalidReason::Skating {
+                    skate: strider_common::Skate::Slid { .. }
+                },
+                ..
+            }
+        ),
+        "{slid:?}"
+    );
+}

@@ -177,7 +177,7 @@ fn lock(path: &Path) -> Result<std::fs::File, DbError> {
 pub fn standing_of(shortfall: Shortfall, figure: f64) -> Standing {
     match shortfall {
         Shortfall::Speed | Shortfall::Backward => Standing::TooSlow { speed: figure },
-        Shortfall::Fell | Shortfall::SelfContact | Shortfall::Unstable => {
+        Shortfall::Skating | Shortfall::Fell | Shortfall::SelfContact | Shortfall::Unstable => {
             Standing::EndedEarly { at_time: figure }
         }
     }

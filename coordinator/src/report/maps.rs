@@ -146,6 +146,7 @@ fn shortfall_colour(s: Shortfall) -> &'static str {
     match s {
         Shortfall::Speed => "#f1b82d",
         Shortfall::Backward => "#a6611a",
+        Shortfall::Skating => "#4393c3",
         Shortfall::Fell => "#d7301f",
         Shortfall::SelfContact => "#7b3294",
         Shortfall::Unstable => "#252525",
@@ -173,6 +174,7 @@ fn frontier_legend(s: &mut String, x: f64, y: f64) {
                 match sh {
                     Shortfall::Speed => "too slow",
                     Shortfall::Backward => "backward",
+                    Shortfall::Skating => "skating",
                     Shortfall::Fell => "fell",
                     Shortfall::SelfContact => "self-contact",
                     Shortfall::Unstable => "unstable",

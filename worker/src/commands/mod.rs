@@ -4,6 +4,7 @@
 
 pub mod connect;
 pub mod eval;
+pub mod fidelity;
 pub mod inspect;
 pub mod random;
 pub mod survey;
@@ -48,6 +49,9 @@ pub enum Command {
     Random(random::RandomArgs),
     /// Evaluate random genomes and report how often each constraint of the brief fails.
     Survey(survey::SurveyArgs),
+    /// Evaluate designs at several physics steps and stay-up windows: does the verdict
+    /// depend on the step?
+    Fidelity(fidelity::FidelityArgs),
 }
 
 /// Runs the command, or works for a coordinator when there is none.
@@ -63,6 +67,7 @@ pub fn execute(cli: Cli) -> anyhow::Result<()> {
         }
         Some(Command::Random(args)) => random::execute(args),
         Some(Command::Survey(args)) => survey::execute(args),
+        Some(Command::Fidelity(args)) => fidelity::execute(args),
     }
 }
 

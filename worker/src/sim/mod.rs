@@ -1,4 +1,6 @@
 //! The physics: building a robot's world and running its trial.
 
+pub mod drive;
+pub mod feet;
 pub mod trial;
 pub mod world;

@@ -5,14 +5,13 @@
 //! while longer (`upright_after_seconds`), its gait going on; distance and energy count
 //! over the trial only.
 //!
-//! Torque accounting. Rapier integrates a joint spring by backward Euler: over a step the
-//! joint receives `tau = k (rest - q_n) - (k dt + d) v_{n+1}` (with `q_n` the angle before
-//! the step and `v_{n+1}` the velocity after it). Before each step the rest point is chosen
-//! so that this torque, predicted with `v_n`, is the spring toward the target clamped to the
-//! joint's limit; after the step the torque actually applied is computed from `v_{n+1}` and
+//! Torque accounting. Each joint is driven by its servo law (`super::drive`); after each
+//! step the torque it actually received is computed from its speed after the step and
 //! integrated: `E += |tau * v_{n+1}| dt`, the exact work of that torque under rapier's
 //! position update `q_{n+1} = q_n + dt v_{n+1}`.
 
+use super::drive::DrivenStepper;
+use super::feet::FootTracker;
 use super::world::{part_of_tag, RobotWorld, GROUND_TAG, HINGE_DOF_AXIS};
 use ::nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use rapier3d::prelude::*;
@@ -20,7 +19,7 @@ use strider_common::body_plan::BodyPlan;
 use strider_common::contact::Part;
 use strider_common::experiment::{RunSettings, TrialLimits};
 use strider_common::gait::leg_targets;
-use strider_common::outcome::{Fall, InvalidReason, TrialStats};
+use strider_common::outcome::{Fall, GaitStats, InvalidReason, Skate, TrialStats};
 use strider_common::params::LINKS_PER_LEG;
 use strider_common::{Controller, StartPose};
 
@@ -60,6 +59,8 @@ pub struct Sample<'a> {
     pub angles: &'a [f64],
     /// Torques applied during the last physics step, same order, Nm.
     pub torques: &'a [f64],
+    /// The targets the joints were driven toward over this control step, same order, rad.
+    pub targets: &'a [f64],
     /// Energy spent so far, J.
     pub energy: f64,
     /// The robot's centre of mass in the world, m.
@@ -138,9 +139,11 @@ pub fn run_trial_with<O: Observer>(
     let n = rw.joints.len();
     let mut targets = vec![0.0; n];
     let mut angles = vec![0.0; n];
-    let mut rests = vec![0.0; n];
-    let mut torques = vec![0.0; n];
+    let mut stepper = DrivenStepper::new(n);
     let mut energy = 0.0;
+    let mut peak_torque_ratio: f64 = 0.0;
+    let mut feet = FootTracker::new(plan, &rw);
+    let mut down = vec![false; plan.legs.len()];
 
     for step in 0..steps + after {
         if step == steps {
@@ -154,8 +157,7 @@ pub fn run_trial_with<O: Observer>(
                 targets[leg_index * LINKS_PER_LEG..][..LINKS_PER_LEG].copy_from_slice(&q);
             }
         }
-        drive_joints(&mut rw, dt, &targets, &mut angles, &mut rests);
-        rw.world.step();
+        stepper.step(&mut rw, dt, &targets);
         let time = t + dt;
 
         // Applied torques and the work they did.
@@ -177,12 +179,11 @@ pub fn run_trial_with<O: Observer>(
             return stopped(InvalidReason::BlowUp { speed: fastest }, time);
         }
         for (i, slot) in rw.joints.iter().enumerate() {
-            let link = mb.link(slot.link_id).expect("joint link");
-            let v1 = f64::from(mb.joint_velocity(link)[0]);
-            let tau =
-                slot.stiffness * (rests[i] - angles[i]) - (slot.stiffness * dt + slot.damping) * v1;
-            torques[i] = tau;
+            let (tau, v1) = (stepper.torques[i], stepper.speeds[i]);
             energy += (tau * v1).abs() * dt;
+            if step < steps {
+                peak_torque_ratio = peak_torque_ratio.max(tau.abs() / slot.drive.max_torque);
+            }
         }
         if !energy.is_finite() {
             return stopped(
@@ -204,14 +205,24 @@ pub fn run_trial_with<O: Observer>(
                 time,
                 body: body_pose(&rw),
                 angles: &angles,
-                torques: &torques,
+                torques: &stepper.torques,
+                targets: &targets,
                 energy,
                 com: centre_of_mass(&rw),
             });
         }
         // After the trial only falls count: a self-contact then changes no figure.
-        if let Some(reason) = contacts(&rw, limits.only_feet_on_ground, step < steps, plan) {
+        if let Some(reason) = contacts(
+            &rw,
+            limits.only_feet_on_ground,
+            step < steps,
+            plan,
+            &mut down,
+        ) {
             return stopped(reason, time);
+        }
+        if step < steps {
+            feet.step(&rw, &down);
         }
         if let Some(fall) = falls.check(&rw, step >= steps) {
             return stopped(InvalidReason::Fell { fall }, time);
@@ -229,6 +240,13 @@ pub fn run_trial_with<O: Observer>(
     }
     let distance = com_end.x - com_start.x;
     let duration = steps as f64 * dt;
+    let gait = GaitStats {
+        peak_torque_ratio,
+        ..feet.stats()
+    };
+    if let Some(skate) = skating(&gait, distance, limits) {
+        return stopped(InvalidReason::Skating { skate }, duration);
+    }
     TrialEnd::Completed(TrialStats {
         distance,
         energy,
@@ -236,50 +254,38 @@ pub fn run_trial_with<O: Observer>(
         mass: total_mass,
         cost_of_transport: energy / (total_mass * GRAVITY * distance),
         duration,
+        gait,
     })
+}
+
+/// A trial is judged for skating only when the robot walked at least this far, m (about a
+/// stride of these robots): over a shorter walk, a few centimetres of settling make any
+/// share or ratio of the feet's travel large, and say nothing of how they step.
+pub const SKATING_MIN_DISTANCE: f64 = 1.0;
+
+/// How the feet skated over a trial that walked `distance`, if past the limits.
+fn skating(gait: &GaitStats, distance: f64, limits: &TrialLimits) -> Option<Skate> {
+    if distance < SKATING_MIN_DISTANCE {
+        return None;
+    }
+    let ratio = gait.foot_slip / distance;
+    if ratio > limits.max_foot_slip_ratio {
+        return Some(Skate::Slid {
+            ratio,
+            limit: limits.max_foot_slip_ratio,
+        });
+    }
+    if gait.low_forward_share > limits.max_low_forward_share {
+        return Some(Skate::Shuffled {
+            share: gait.low_forward_share,
+            limit: limits.max_low_forward_share,
+        });
+    }
+    None
 }
 
 fn stopped(reason: InvalidReason, at_time: f64) -> TrialEnd {
     TrialEnd::Stopped { reason, at_time }
-}
-
-/// Sets every spring's rest point for the coming step: toward the target, with the torque
-/// predicted from the current velocity clamped to the joint's limit. Records the angle
-/// before the step and the rest point used.
-fn drive_joints(
-    rw: &mut RobotWorld,
-    dt: f64,
-    targets: &[f64],
-    angles: &mut [f64],
-    rests: &mut [f64],
-) {
-    // Borrow the multibody and the joint list separately.
-    let RobotWorld {
-        world,
-        multibody,
-        joints,
-        ..
-    } = rw;
-    let (mb, _) = world
-        .multibody_joints
-        .get_mut(*multibody)
-        .expect("the robot's multibody exists");
-    for (i, slot) in joints.iter().enumerate() {
-        let link = mb.link(slot.link_id).expect("joint link");
-        let q = f64::from(link.joint.coords()[HINGE_DOF_AXIS]);
-        let v = f64::from(mb.joint_velocity(link)[0]);
-        let k = slot.stiffness;
-        let resist = (k * dt + slot.damping) * v;
-        let wanted = k * (targets[i] - q) - resist;
-        let torque = wanted.clamp(-slot.max_torque, slot.max_torque);
-        let rest = q + (torque + resist) / k;
-        angles[i] = q;
-        rests[i] = rest;
-        mb.link_mut(slot.link_id)
-            .expect("joint link")
-            .joint
-            .set_spring(HINGE_DOF_AXIS, k as f32, rest as f32);
-    }
 }
 
 /// The body's tilt and height limits of a trial, precomputed.
@@ -333,20 +339,23 @@ impl FallCheck {
 
 /// Contacts that end the trial, from the pairs in real contact (not merely predicted): when
 /// `self_contacts`, two robot parts not joined by a hinge (hinged pairs have contacts off),
-/// else, when `feet_only`, a part other than a lower leg on the ground.
+/// else, when `feet_only`, a part other than a lower leg on the ground. Sets `feet_down[leg]`
+/// for every lower leg on the ground.
 fn contacts(
     rw: &RobotWorld,
     feet_only: bool,
     self_contacts: bool,
     plan: &BodyPlan,
+    feet_down: &mut [bool],
 ) -> Option<InvalidReason> {
     let colliders = &rw.world.colliders;
     let mut dragged = None;
+    feet_down.fill(false);
     for pair in rw.world.narrow_phase.contact_pairs() {
         let a = colliders[pair.collider1].user_data;
         let b = colliders[pair.collider2].user_data;
         let on_ground = a == GROUND_TAG || b == GROUND_TAG;
-        if (on_ground && (!feet_only || dragged.is_some())) || (!on_ground && !self_contacts) {
+        if !on_ground && !self_contacts {
             continue;
         }
         let touching = pair
@@ -358,8 +367,12 @@ fn contacts(
         }
         if on_ground {
             let part = part_of_tag(a.min(b));
-            if !part.may_touch_ground() {
-                dragged = Some(part);
+            match part {
+                Part::Link { leg, .. } if part.may_touch_ground() => feet_down[leg] = true,
+                _ if feet_only => {
+                    dragged.get_or_insert(part);
+                }
+                _ => {}
             }
         } else {
             let (first, second) = (part_of_tag(a.min(b)), part_of_tag(a.max(b)));

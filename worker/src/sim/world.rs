@@ -3,11 +3,12 @@
 //! One multibody: the body is its free root; every link hangs on a revolute joint whose
 //! rapier angle is exactly the model's joint angle q (see `docs/model.md`). Joints are
 //! implicit springs with joint damping (the approach `docs/rapier.md` records
-//! stable); the trial moves each spring's rest point to drive and clamp the joint.
+//! stable); the trial sets each spring and damping before every step to drive the joint
+//! by its servo law and clamp it (`super::drive`).
 
 use ::nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
 use rapier3d::prelude::*;
-use strider_common::body_plan::BodyPlan;
+use strider_common::body_plan::{BodyPlan, JointDrive};
 use strider_common::contact::Part;
 use strider_common::mass::MassProperties as ModelMass;
 use strider_common::params::LINKS_PER_LEG;
@@ -29,12 +30,8 @@ pub struct JointSlot {
     pub link_id: usize,
     /// Its index in the multibody's generalized coordinates.
     pub dof: usize,
-    /// Stiffness, Nm/rad.
-    pub stiffness: f64,
-    /// Damping, Nms/rad.
-    pub damping: f64,
-    /// Torque limit, Nm.
-    pub max_torque: f64,
+    /// The drive's law: stiffness, servo damping and torque limit.
+    pub drive: JointDrive,
 }
 
 /// A robot standing in a rapier world, ready to step.
@@ -211,16 +208,12 @@ impl RobotWorld {
                 .expect("joint exists");
             let link = mb.link_mut(link_id).expect("link exists");
             link.joint.apply_displacement(&[q as f32]);
-            link.joint
-                .set_spring(HINGE_DOF_AXIS, drive.stiffness as f32, q as f32);
+            // The trial sets each joint's spring and damping before every step.
             let dof = link.assembly_id();
-            mb.damping_mut()[dof] = drive.damping as f32;
             joints.push(JointSlot {
                 link_id,
                 dof,
-                stiffness: drive.stiffness,
-                damping: drive.damping,
-                max_torque: drive.max_torque,
+                drive: *drive,
             });
         }
         let (mb, _) = world

@@ -1,0 +1,174 @@
+//! `fidelity`: the same designs at several physics steps (and stay-up windows), each
+//! setting compared with the next: does the verdict depend on the step?
+
+use super::{context, emit};
+use crate::fidelity::{Setting, Study};
+use anyhow::Context;
+use std::num::NonZeroUsize;
+use std::path::{Path, PathBuf};
+use strider_common::precheck::check_before_trial;
+use strider_common::rng::{CandidateSeed, Purpose};
+use strider_common::{BodyPlan, Controller, Genome, Scheme, StartPose};
+use strider_proto::process::default_threads;
+
+/// Arguments of `fidelity`.
+#[derive(clap::Args)]
+pub struct FidelityArgs {
+    /// Designs from a file: `export --format json` output (every run's elites, and with
+    /// `--infeasible` the infeasible library's too), a JSON array of genomes, or one genome
+    /// per line.
+    #[arg(long)]
+    genomes: Option<PathBuf>,
+    /// Take the infeasible elites of an export too.
+    #[arg(long)]
+    infeasible: bool,
+    /// Random designs that pass mass, height and start pose (so are simulated), the first
+    /// N that a run with `--seed` draws, besides or instead of `--genomes`.
+    #[arg(long, default_value_t = 0)]
+    random: u64,
+    /// Run seed of the random designs.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Controller scheme: static (midpoint gait) or genome (each design's own gait).
+    #[arg(long, default_value = "static")]
+    scheme: Scheme,
+    /// Physics steps per control step to compare, coarsest first.
+    #[arg(long, value_delimiter = ',', default_value = "4,8,16")]
+    substeps: Vec<u32>,
+    /// Also evaluate at the first substeps with these stay-up windows after the trial, s.
+    #[arg(long, value_delimiter = ',')]
+    stay_up: Vec<f64>,
+    /// Threads (all cores by default).
+    #[arg(long)]
+    threads: Option<NonZeroUsize>,
+    /// Take settings, brief and features from this experiment file (paper defaults otherwise).
+    #[arg(long)]
+    experiment: Option<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Also write one CSV row per design and setting.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+}
+
+/// Genomes from an export, an array or JSON lines.
+fn load_genomes(path: &Path, infeasible: bool) -> anyhow::Result<Vec<Genome>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let parse = |v: &serde_json::Value, what: &str| -> anyhow::Result<Genome> {
+        serde_json::from_value(v.clone())
+            .with_context(|| format!("{}: {what} is not a genome", path.display()))
+    };
+    let mut out = Vec::new();
+    match serde_json::from_str::<serde_json::Value>(&text) {
+        Ok(serde_json::Value::Object(export)) => {
+            let runs = export
+                .get("runs")
+                .and_then(|r| r.as_array())
+                .with_context(|| format!("{}: no \"runs\" (not an export)", path.display()))?;
+            for (r, run) in runs.iter().enumerate() {
+                let mut tables = vec!["elites"];
+                if infeasible {
+                    tables.push("infeasible");
+                }
+                for table in tables {
+                    for (i, e) in run[table].as_array().into_iter().flatten().enumerate() {
+                        out.push(parse(
+                            &e["genome"],
+                            &format!("runs[{r}].{table}[{i}].genome"),
+                        )?);
+                    }
+                }
+            }
+        }
+        Ok(serde_json::Value::Array(items)) => {
+            for (i, v) in items.iter().enumerate() {
+                out.push(parse(v, &format!("item {i}"))?);
+            }
+        }
+        _ => {
+            for (i, line) in text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| !l.trim().is_empty())
+            {
+                let v: serde_json::Value = serde_json::from_str(line)
+                    .with_context(|| format!("{} line {}", path.display(), i + 1))?;
+                out.push(parse(&v, &format!("line {}", i + 1))?);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Runs the study and prints (and writes) it.
+pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
+    let ctx = context(args.experiment.as_deref())?;
+    let mut genomes = match &args.genomes {
+        Some(path) => load_genomes(path, args.infeasible)?,
+        None => Vec::new(),
+    };
+    let mut drawn = 0;
+    for i in 0.. {
+        if drawn == args.random {
+            break;
+        }
+        let s = CandidateSeed::new(args.seed, i);
+        let g = Genome::random(args.scheme, &mut s.rng(Purpose::RandomGenome));
+        let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+        // ES starts from STATIC's controller.
+        let controller = match args.scheme {
+            Scheme::Genome => g.controller,
+            Scheme::Static | Scheme::Es => Controller::static_default(),
+        };
+        let pose = StartPose::new(&plan, &controller);
+        if check_before_trial(&ctx, &plan, &pose, &controller).is_none() {
+            genomes.push(g);
+            drawn += 1;
+        }
+    }
+    anyhow::ensure!(
+        !genomes.is_empty(),
+        "no designs: give --genomes or --random"
+    );
+    anyhow::ensure!(!args.substeps.is_empty(), "--substeps names no setting");
+    let after = ctx.limits.upright_after_seconds;
+    let mut settings: Vec<Setting> = args
+        .substeps
+        .iter()
+        .map(|&s| Setting {
+            physics_substeps: s,
+            upright_after_seconds: after,
+        })
+        .collect();
+    for &w in &args.stay_up {
+        settings.push(Setting {
+            physics_substeps: args.substeps[0],
+            upright_after_seconds: w,
+        });
+    }
+    let total = genomes.len() * settings.len();
+    let last = std::sync::Mutex::new(std::time::Instant::now());
+    let progress = |done: usize| {
+        let Ok(mut last) = last.try_lock() else {
+            return;
+        };
+        if last.elapsed() >= std::time::Duration::from_secs(10) {
+            *last = std::time::Instant::now();
+            eprintln!("fidelity: {done} of {total} trials");
+        }
+    };
+    let threads = args.threads.unwrap_or_else(default_threads);
+    let study = Study::run(&ctx, &genomes, args.scheme, &settings, threads, &progress);
+    if let Some(path) = &args.csv {
+        let file =
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let mut out = std::io::BufWriter::new(file);
+        study
+            .write_csv(&mut out)
+            .and_then(|()| std::io::Write::flush(&mut out))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    emit(&study, args.json)
+}

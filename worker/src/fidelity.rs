@@ -1,0 +1,264 @@
+//! Does a verdict depend on the physics step? The same designs evaluated at several
+//! `physics_substeps` (and, on request, with a longer stay-up window after the trial), and
+//! each setting compared with the next finer one: how often the verdict agrees, and how far
+//! distance and energy move (docs/model.md section 6, the convergence table).
+
+use crate::batch::map_batch;
+use crate::evaluate::evaluate;
+use serde::Serialize;
+use std::fmt;
+use std::num::NonZeroUsize;
+use strider_common::outcome::Fall;
+use strider_common::rng::CandidateSeed;
+use strider_common::{EvalContext, Genome, InvalidReason, Outcome, Scheme};
+
+/// A verdict's class, what two settings must agree on: feasible, too slow, or the way the
+/// trial ended or the design was refused.
+pub fn verdict(o: &Outcome) -> String {
+    match o {
+        Outcome::Valid { .. } => "feasible".into(),
+        Outcome::Rejected { stats: Some(_), .. } => "too_slow".into(),
+        Outcome::Rejected { stats: None, .. } => "rejected".into(),
+        Outcome::Invalid { reason, .. } => match reason {
+            InvalidReason::Fell { fall } => match fall {
+                Fall::Tilted { .. } => "fell_tilted".into(),
+                Fall::Sank { .. } => "fell_sank".into(),
+                Fall::Dragged { .. } => "fell_dragged".into(),
+            },
+            other => serde_json::to_value(other)
+                .ok()
+                .and_then(|v| v["kind"].as_str().map(str::to_owned))
+                .unwrap_or_else(|| "invalid".into()),
+        },
+    }
+}
+
+/// One design at one setting.
+#[derive(Clone, Debug, Serialize)]
+pub struct Trial {
+    pub verdict: String,
+    /// Distance and energy of a completed trial.
+    pub distance: Option<f64>,
+    pub energy: Option<f64>,
+    pub fitness: Option<f64>,
+    pub peak_torque_ratio: Option<f64>,
+    pub foot_slip: Option<f64>,
+    pub low_forward_share: Option<f64>,
+    pub duty_factor: Option<f64>,
+}
+
+impl Trial {
+    fn of(o: &Outcome) -> Self {
+        let s = o.stats();
+        Self {
+            verdict: verdict(o),
+            distance: s.map(|s| s.distance),
+            energy: s.map(|s| s.energy),
+            fitness: o.fitness(),
+            peak_torque_ratio: s.map(|s| s.gait.peak_torque_ratio),
+            foot_slip: s.map(|s| s.gait.foot_slip),
+            low_forward_share: s.map(|s| s.gait.low_forward_share),
+            duty_factor: s.map(|s| s.gait.duty_factor),
+        }
+    }
+}
+
+/// One setting of the study.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Setting {
+    pub physics_substeps: u32,
+    /// Seconds the robot must stay up after the trial.
+    pub upright_after_seconds: f64,
+}
+
+impl fmt::Display for Setting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} substeps, {} s after",
+            self.physics_substeps, self.upright_after_seconds
+        )
+    }
+}
+
+/// How one setting compares with another over the same designs.
+#[derive(Clone, Debug, Serialize)]
+pub struct Agreement {
+    pub from: Setting,
+    pub to: Setting,
+    pub designs: usize,
+    /// Designs with the same verdict in both.
+    pub same_verdict: usize,
+    /// Feasible in `from`, and of those feasible in `to` too.
+    pub feasible_from: usize,
+    pub feasible_both: usize,
+    /// Completed (feasible or too slow) in both.
+    pub completed_both: usize,
+    /// Median |d_from - d_to| / |d_to| over those, and the same for energy.
+    pub median_distance_change: Option<f64>,
+    pub median_energy_change: Option<f64>,
+}
+
+/// The study: every design's trial at every setting.
+#[derive(Clone, Debug, Serialize)]
+pub struct Study {
+    pub settings: Vec<Setting>,
+    /// `trials[d][s]`: design `d` at setting `s`.
+    pub trials: Vec<Vec<Trial>>,
+    pub agreements: Vec<Agreement>,
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+fn agreement(trials: &[Vec<Trial>], settings: &[Setting], a: usize, b: usize) -> Agreement {
+    let mut same = 0;
+    let (mut feasible_from, mut feasible_both) = (0, 0);
+    let (mut dd, mut de) = (Vec::new(), Vec::new());
+    for t in trials {
+        let (x, y) = (&t[a], &t[b]);
+        same += usize::from(x.verdict == y.verdict);
+        if x.verdict == "feasible" {
+            feasible_from += 1;
+            feasible_both += usize::from(y.verdict == "feasible");
+        }
+        if let (Some(d0), Some(d1), Some(e0), Some(e1)) =
+            (x.distance, y.distance, x.energy, y.energy)
+        {
+            dd.push((d0 - d1).abs() / d1.abs().max(1e-9));
+            de.push((e0 - e1).abs() / e1.abs().max(1e-9));
+        }
+    }
+    Agreement {
+        from: settings[a],
+        to: settings[b],
+        designs: trials.len(),
+        same_verdict: same,
+        feasible_from,
+        feasible_both,
+        completed_both: dd.len(),
+        median_distance_change: median(dd),
+        median_energy_change: median(de),
+    }
+}
+
+impl Study {
+    /// Evaluates `genomes` under `scheme` at every setting (`ctx` gives everything else)
+    /// and compares each setting with the next.
+    pub fn run(
+        ctx: &EvalContext,
+        genomes: &[Genome],
+        scheme: Scheme,
+        settings: &[Setting],
+        threads: NonZeroUsize,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Self {
+        let jobs: Vec<(usize, usize)> = (0..genomes.len())
+            .flat_map(|d| (0..settings.len()).map(move |s| (d, s)))
+            .collect();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let flat = map_batch(&jobs, threads, |&(d, s)| {
+            let mut c = ctx.clone();
+            c.settings.physics_substeps = settings[s].physics_substeps;
+            c.limits.upright_after_seconds = settings[s].upright_after_seconds;
+            let o = evaluate(&c, &genomes[d], scheme, CandidateSeed::new(1, d as u64));
+            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+            Trial::of(&o)
+        });
+        let mut trials: Vec<Vec<Trial>> = Vec::with_capacity(genomes.len());
+        let mut it = flat.into_iter();
+        for _ in genomes {
+            trials.push(it.by_ref().take(settings.len()).collect());
+        }
+        let agreements = (1..settings.len())
+            .map(|s| agreement(&trials, settings, s - 1, s))
+            .collect();
+        Self {
+            settings: settings.to_vec(),
+            trials,
+            agreements,
+        }
+    }
+
+    /// One CSV row per design and setting.
+    pub fn write_csv(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
+        writeln!(
+            out,
+            "design,physics_substeps,upright_after_seconds,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
+        )?;
+        let f = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
+        for (d, row) in self.trials.iter().enumerate() {
+            for (s, t) in self.settings.iter().zip(row) {
+                writeln!(
+                    out,
+                    "{d},{},{},{},{},{},{},{},{},{},{}",
+                    s.physics_substeps,
+                    s.upright_after_seconds,
+                    t.verdict,
+                    f(t.distance),
+                    f(t.energy),
+                    f(t.fitness),
+                    f(t.peak_torque_ratio),
+                    f(t.foot_slip),
+                    f(t.low_forward_share),
+                    f(t.duty_factor)
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Study {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.trials.len();
+        writeln!(f, "{n} designs")?;
+        for (s, setting) in self.settings.iter().enumerate() {
+            let feasible = self
+                .trials
+                .iter()
+                .filter(|t| t[s].verdict == "feasible")
+                .count();
+            writeln!(f, "  {setting}: {feasible} feasible")?;
+        }
+        let pct = |a: usize, b: usize| {
+            if b == 0 {
+                "-".to_string()
+            } else {
+                format!("{:.1} %", 100.0 * a as f64 / b as f64)
+            }
+        };
+        let opt = |v: Option<f64>| {
+            v.map(|v| format!("{:.1} %", 100.0 * v))
+                .unwrap_or_else(|| "-".into())
+        };
+        for a in &self.agreements {
+            writeln!(
+                f,
+                "{} -> {}: same verdict {} ({}/{}); feasible kept {} ({}/{}); distance {} and energy {} (median change over {} completed in both)",
+                a.from,
+                a.to,
+                pct(a.same_verdict, a.designs),
+                a.same_verdict,
+                a.designs,
+                pct(a.feasible_both, a.feasible_from),
+                a.feasible_both,
+                a.feasible_from,
+                opt(a.median_distance_change),
+                opt(a.median_energy_change),
+                a.completed_both
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,201 @@
+//! The joint drives: each joint's servo law `clamp(k (q* - q) - D qdot, ±τmax)` (with
+//! `D = d + k T_v`, `JointDrive::servo_damping`) put into rapier for one physics step, and
+//! the torque rapier then actually applied.
+//!
+//! Rapier integrates a multibody joint spring of stiffness `s` and joint damping `c` by
+//! backward Euler: over a step of length `dt` the joint receives
+//! `tau = s (rest - q_n) - (s dt + c) v_{n+1}` (`q_n` the angle before the step, `v_{n+1}`
+//! the speed after it; docs/rapier.md). So:
+//!
+//! - **Within the limit**: spring `s = k` at rest `q*`, damping `c = D - k dt`, so the joint
+//!   gets `k (q* - q_n) - D v_{n+1}`: the servo's damping `D` whatever the step. (Before,
+//!   `c = d` and the step added `k dt` of damping that no model stated.) Stiffness explicit,
+//!   damping implicit: stable for any step up to `2 T_v`.
+//! - **At the limit**: a constant torque of exactly `±τmax` over the step: a spring of
+//!   stiffness `τmax` with its rest 1 rad away and damping `-τmax dt`, which cancels the
+//!   spring's implicit `s dt`, so nothing depends on `v_{n+1}`.
+//!
+//! Which joints are at the limit is decided with the speed before the step; a joint whose
+//! speed then changes much within the step (a foot striking the ground) would receive more
+//! than its limit through the implicit damping. So every step is checked after it is taken:
+//! if any joint within the limit received more, the world is put back as it was before the
+//! step and the step taken again with those joints at their limit, until none does (at
+//! most once per joint). Measured on MAX at 120 Hz: about one step in 60 is taken twice,
+//! and a snapshot costs about a tenth of a step (BENCHMARKS.md).
+
+use super::world::{RobotWorld, HINGE_DOF_AXIS};
+use rapier3d::prelude::*;
+
+/// A joint within its limit may receive this much more than the limit, relative: the
+/// rounding of rapier's f32 arithmetic, not a torque a motor would notice.
+pub const LIMIT_ROUNDING: f64 = 1e-5;
+
+/// How one joint is driven over one physics step: the torque it receives is
+/// `stiffness (rest - angle) - implicit v_{n+1}`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepDrive {
+    /// The angle before the step, rad (as rapier holds it).
+    pub angle: f64,
+    /// The spring's stiffness, Nm/rad.
+    pub stiffness: f64,
+    /// The spring's rest angle, rad (as rapier holds it).
+    pub rest: f64,
+    /// The damping acting on the speed after the step, Nms/rad.
+    pub implicit: f64,
+    /// Held at its limit over the step (+1 or -1), or driven by its law (0).
+    pub at_limit: f64,
+}
+
+impl StepDrive {
+    /// The torque applied over the step, given the joint's speed after it.
+    pub fn torque(&self, speed_after: f64) -> f64 {
+        self.stiffness * (self.rest - self.angle) - self.implicit * speed_after
+    }
+}
+
+/// The parts of the world a step changes: enough to take the step again.
+struct Snapshot {
+    bodies: RigidBodySet,
+    colliders: ColliderSet,
+    multibody_joints: MultibodyJointSet,
+    islands: IslandManager,
+    broad_phase: BroadPhaseBvh,
+    narrow_phase: NarrowPhase,
+}
+
+impl Snapshot {
+    fn take(world: &PhysicsWorld) -> Self {
+        Self {
+            bodies: world.bodies.clone(),
+            colliders: world.colliders.clone(),
+            multibody_joints: world.multibody_joints.clone(),
+            islands: world.islands.clone(),
+            broad_phase: world.broad_phase.clone(),
+            narrow_phase: world.narrow_phase.clone(),
+        }
+    }
+
+    fn restore(&self, world: &mut PhysicsWorld) {
+        world.bodies.clone_from(&self.bodies);
+        world.colliders.clone_from(&self.colliders);
+        world.multibody_joints.clone_from(&self.multibody_joints);
+        world.islands.clone_from(&self.islands);
+        world.broad_phase.clone_from(&self.broad_phase);
+        world.narrow_phase.clone_from(&self.narrow_phase);
+    }
+}
+
+/// Steps a robot's world with every joint driven by its law and held within its limit.
+pub struct DrivenStepper {
+    /// Each joint's drive over the last step.
+    pub drives: Vec<StepDrive>,
+    /// Each joint's speed after the last step, rad/s.
+    pub speeds: Vec<f64>,
+    /// Each joint's torque over the last step, Nm.
+    pub torques: Vec<f64>,
+    /// Steps taken again because a joint passed its limit.
+    pub retaken: u32,
+    forced: Vec<f64>,
+}
+
+impl DrivenStepper {
+    /// A stepper for `joints` joints.
+    pub fn new(joints: usize) -> Self {
+        Self {
+            drives: vec![StepDrive::default(); joints],
+            speeds: vec![0.0; joints],
+            torques: vec![0.0; joints],
+            retaken: 0,
+            forced: vec![0.0; joints],
+        }
+    }
+
+    /// One physics step of `dt` toward `targets`. Afterwards `drives`, `speeds` and
+    /// `torques` describe it; no joint's torque passed its limit (to `LIMIT_ROUNDING`).
+    pub fn step(&mut self, rw: &mut RobotWorld, dt: f64, targets: &[f64]) {
+        self.forced.fill(0.0);
+        let mut snapshot = None;
+        loop {
+            set_drives(rw, dt, targets, &self.forced, &mut self.drives);
+            let snap = snapshot.get_or_insert_with(|| Snapshot::take(&rw.world));
+            rw.world.step();
+            let mb = rw.robot();
+            let mut passed = false;
+            for (i, slot) in rw.joints.iter().enumerate() {
+                let link = mb.link(slot.link_id).expect("joint link");
+                let v1 = f64::from(mb.joint_velocity(link)[0]);
+                let tau = self.drives[i].torque(v1);
+                self.speeds[i] = v1;
+                self.torques[i] = tau;
+                let limit = slot.drive.max_torque;
+                // A non-finite speed is the trial's to report, not a limit to hold.
+                if self.drives[i].at_limit == 0.0 && tau.abs() > limit * (1.0 + LIMIT_ROUNDING) {
+                    self.forced[i] = tau.signum();
+                    passed = true;
+                }
+            }
+            if !passed {
+                return;
+            }
+            self.retaken += 1;
+            snap.restore(&mut rw.world);
+        }
+    }
+}
+
+/// Sets every joint's spring and damping for the coming step of `dt` toward `targets`;
+/// joints with a non-zero `forced` sign are held at that limit. Records each in `drives`.
+fn set_drives(
+    rw: &mut RobotWorld,
+    dt: f64,
+    targets: &[f64],
+    forced: &[f64],
+    drives: &mut [StepDrive],
+) {
+    let RobotWorld {
+        world,
+        multibody,
+        joints,
+        ..
+    } = rw;
+    let (mb, _) = world
+        .multibody_joints
+        .get_mut(*multibody)
+        .expect("the robot's multibody exists");
+    for (i, slot) in joints.iter().enumerate() {
+        let link = mb.link(slot.link_id).expect("joint link");
+        let q = f64::from(link.joint.coords()[HINGE_DOF_AXIS]);
+        let v = f64::from(mb.joint_velocity(link)[0]);
+        let law = &slot.drive;
+        let servo = law.servo_damping();
+        let wanted = law.stiffness * (targets[i] - q) - servo * v;
+        let at_limit = if forced[i] != 0.0 {
+            forced[i]
+        } else if wanted.abs() >= law.max_torque {
+            wanted.signum()
+        } else {
+            0.0
+        };
+        let (stiffness, rest, damping) = if at_limit == 0.0 {
+            let k = law.stiffness;
+            (k, targets[i], servo - k * dt)
+        } else {
+            let limit = law.max_torque;
+            (limit, q + at_limit, -limit * dt)
+        };
+        let (s32, r32, c32) = (stiffness as f32, rest as f32, damping as f32);
+        drives[i] = StepDrive {
+            angle: q,
+            stiffness: f64::from(s32),
+            rest: f64::from(r32),
+            // What rapier applies on v_{n+1}: s dt + c, in its own precision.
+            implicit: f64::from(s32) * f64::from(dt as f32) + f64::from(c32),
+            at_limit,
+        };
+        mb.damping_mut()[slot.dof] = c32;
+        mb.link_mut(slot.link_id)
+            .expect("joint link")
+            .joint
+            .set_spring(HINGE_DOF_AXIS, s32, r32);
+    }
+}
