@@ -168,7 +168,7 @@ impl Study {
             .collect();
         let done = std::sync::atomic::AtomicUsize::new(0);
         let flat = map_batch(&jobs, threads, |&(d, s)| {
-            let mut c = ctx.clone();
+            let mut c = *ctx;
             c.settings.physics_substeps = settings[s].physics_substeps;
             c.limits.upright_after_seconds = settings[s].upright_after_seconds;
             let o = evaluate(&c, &genomes[d], scheme, CandidateSeed::new(1, d as u64));

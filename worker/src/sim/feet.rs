@@ -80,7 +80,7 @@ impl FootTracker {
     /// Records a physics step: `down[i]` says whether foot `i` is on the ground after it.
     pub fn step(&mut self, rw: &RobotWorld, down: &[bool]) {
         self.steps += 1;
-        for i in 0..self.feet.len() {
+        for (i, &on_ground) in down.iter().enumerate().take(self.feet.len()) {
             let now = self.position(rw, i);
             let foot = &mut self.feet[i];
             let [dx, _, dz] = [
@@ -88,7 +88,7 @@ impl FootTracker {
                 now[1] - foot.at[1],
                 now[2] - foot.at[2],
             ];
-            if foot.down && down[i] {
+            if foot.down && on_ground {
                 foot.slip += (dx * dx + dz * dz).sqrt();
             }
             if dx > 0.0 {
@@ -97,9 +97,9 @@ impl FootTracker {
                     foot.forward_low += dx;
                 }
             }
-            foot.steps_down += u32::from(down[i]);
+            foot.steps_down += u32::from(on_ground);
             foot.at = now;
-            foot.down = down[i];
+            foot.down = on_ground;
         }
     }
 
