@@ -36,9 +36,10 @@ fn eval_max_reports_its_walk_and_writes_a_trace() {
     let csv = std::fs::read_to_string(&trace).unwrap();
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    // time, pose (7), energy, then 18 angles and 18 torques.
-    assert_eq!(header.len(), 9 + 2 * 18);
+    // time, pose (7), energy, then 18 angles, 18 torques and the 18 joint targets.
+    assert_eq!(header.len(), 9 + 3 * 18);
     assert_eq!(header[9], "r0_q0");
+    assert_eq!(header[9 + 2 * 18], "r0_target0");
     let rows: Vec<&str> = lines.collect();
     // One row per control step: the 5 s trial and the second it must stay up after it.
     assert_eq!(rows.len(), 180, "one row per control step");
