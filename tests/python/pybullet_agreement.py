@@ -4,7 +4,7 @@ the same URDF, start pose, gait targets and drive law; at the end, how many of t
 Strider ran to the end stay upright in PyBullet, and how many of those are within 10 % of
 Strider's distance.
 
-Usage: python3 tests/python/pybullet_agreement.py GENOMES.json [--worker PATH] [--hz 1000]
+Usage: python3 tests/python/pybullet_agreement.py GENOMES.json [--worker PATH] [--hz 4000]
            [--scheme static|genome] [--experiment FILE] [--out DIR]
 GENOMES.json: `strider-coordinator export --format json` (every run's elites) or a JSON
 array of genomes. Prints one JSON line per design, then a summary line.
@@ -20,7 +20,7 @@ here = os.path.dirname(os.path.abspath(__file__))
 ap = argparse.ArgumentParser()
 ap.add_argument("genomes")
 ap.add_argument("--worker", default="target/release/strider-worker")
-ap.add_argument("--hz", type=float, default=1000.0)
+ap.add_argument("--hz", type=float, default=4000.0)
 ap.add_argument("--scheme", default="static")
 ap.add_argument("--experiment")
 ap.add_argument("--out")
