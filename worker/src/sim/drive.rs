@@ -20,7 +20,7 @@
 //! than its limit through the implicit damping. So every step is checked after it is taken:
 //! if any joint within the limit received more, the world is put back as it was before the
 //! step and the step taken again with those joints at their limit, until none does (at
-//! most once per joint). Measured on MAX at 120 Hz: about one step in 60 is taken twice,
+//! most once per joint). Measured on MAX at 240 Hz: about one step in 50 is taken twice,
 //! and a snapshot costs about a tenth of a step (BENCHMARKS.md).
 
 use super::world::{RobotWorld, HINGE_DOF_AXIS};
