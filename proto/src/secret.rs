@@ -1,5 +1,6 @@
 //! The shared secret every call but health must present (`authorization: Bearer <secret>`):
-//! one rule for what a secret is (at least 16 characters, one line, no spaces), for the
+//! one rule for what a secret is (at least 16 visible ASCII characters: one line, no
+//! spaces, no control characters, what an HTTP/2 header carries), for the
 //! coordinator that checks it and the worker and clients that send it. Compared in
 //! constant time, so that timing says nothing about how much of a guess is right.
 
@@ -34,6 +35,19 @@ pub enum SecretError {
     /// The secret is empty or too short.
     #[error("{0}: the secret must be at least 16 characters (one line, no spaces)")]
     TooShort(String),
+    /// The secret holds a character a header cannot carry.
+    #[error(
+        "{origin}: the secret holds {found}, at character {at}; it must be visible ASCII \
+         (letters, digits, punctuation: no control characters, no spaces, no accents)"
+    )]
+    NotVisible {
+        /// Where it came from.
+        origin: String,
+        /// The character, escaped.
+        found: String,
+        /// Its position, from 1.
+        at: usize,
+    },
     /// Neither a file nor the environment gave one.
     #[error("no secret: pass --token-file FILE or set {SECRET_ENV}")]
     Missing,
@@ -43,8 +57,16 @@ impl Secret {
     /// A secret from text (a file's first line, trimmed).
     pub fn new(text: &str, origin: &str) -> Result<Self, SecretError> {
         let s = text.lines().next().unwrap_or("").trim();
-        if s.len() < 16 || s.contains(char::is_whitespace) {
+        if s.chars().count() < 16 || s.contains(char::is_whitespace) {
             return Err(SecretError::TooShort(origin.into()));
+        }
+        // The header is `Bearer <secret>`: only visible ASCII travels as gRPC metadata.
+        if let Some((i, c)) = s.chars().enumerate().find(|(_, c)| !c.is_ascii_graphic()) {
+            return Err(SecretError::NotVisible {
+                origin: origin.into(),
+                found: c.escape_default().to_string(),
+                at: i + 1,
+            });
         }
         Ok(Self(s.to_string()))
     }
@@ -129,6 +151,24 @@ mod tests {
         assert!(!s.matches(b"Bearer 0123456789abcdef0"));
         assert!(!s.matches(b"Bearer 0123456789abcde"));
         assert!(!s.matches(b""));
+    }
+
+    #[test]
+    fn a_secret_a_header_cannot_carry_is_refused_when_read() {
+        for (text, at) in [
+            ("0123456789\u{1b}abcdefgh", 11),
+            ("0123456789abcdef\u{7f}", 17),
+            ("\u{e9}0123456789abcdef", 1),
+            ("0123456789abcdef\u{0}", 17),
+        ] {
+            match Secret::new(text, "file") {
+                Err(SecretError::NotVisible { at: a, .. }) => assert_eq!(a, at, "{text:?}"),
+                other => panic!("{text:?}: {other:?}"),
+            }
+        }
+        let e = Secret::new("0123456789\u{1b}abcdefgh", "s.txt").unwrap_err();
+        assert!(e.to_string().contains("s.txt"), "{e}");
+        assert!(e.to_string().contains("\\u{1b}"), "{e}");
     }
 
     #[test]
