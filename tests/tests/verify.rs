@@ -162,6 +162,87 @@ fn verify_and_resume_catch_edits_sqlite_cannot_see() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Text that is not UTF-8 where the database holds text (a flipped high bit in a genome,
+/// an outcome, the stored experiment): every command that reads it refuses with an error
+/// naming the table, the row and the column; none panics (before: exit 101 from `run`,
+/// `verify`, `export` and `analyse`).
+#[test]
+fn text_that_is_not_utf8_is_refused_naming_its_row_never_a_panic() {
+    let dir = temp_dir("verify-utf8");
+    let db = dir.join("whole.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            FIXTURE,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+    // The elite of the lowest occupied cell of run 0: read by the resume, `verify`,
+    // `export` and `analyse`.
+    let elite = sqlite(
+        &db,
+        "SELECT candidate FROM cells WHERE run_id = 0 ORDER BY cell LIMIT 1",
+    );
+    let elite = elite.trim();
+    // 0xFF can start no UTF-8 character.
+    let bad_text = "CAST(X'7B22FF227D' AS TEXT)";
+    let cases = [
+        (
+            "genome",
+            format!(
+                "UPDATE candidates SET genome = {bad_text} WHERE run_id = 0 AND number = {elite}"
+            ),
+            format!("run 0 candidate {elite}"),
+            "genome",
+        ),
+        (
+            "outcome",
+            format!(
+                "UPDATE candidates SET outcome = {bad_text} WHERE run_id = 0 AND number = {elite}"
+            ),
+            format!("run 0 candidate {elite}"),
+            "outcome",
+        ),
+        (
+            "experiment",
+            format!("UPDATE experiment SET definition = {bad_text}"),
+            "experiment".to_string(),
+            "definition",
+        ),
+    ];
+    let path = |p: &Path| p.to_str().unwrap().to_string();
+    for (name, sql, row, column) in cases {
+        let damaged = corrupted(&db, name, &sql);
+        let d = path(&damaged);
+        for args in [
+            vec!["verify", "--db", &d, "--sample", "0"],
+            vec!["run", "--db", &d],
+            vec!["export", "--db", &d],
+            vec!["analyse", "--db", &d],
+        ] {
+            let out = run("strider-coordinator", &args);
+            let err = String::from_utf8_lossy(&out.stderr);
+            let all = format!("{}{err}", String::from_utf8_lossy(&out.stdout));
+            assert_eq!(out.status.code(), Some(1), "{name}: {args:?}: {all}");
+            // `verify` lists the damaged row among those that fail their checksums; the
+            // others' errors name the column too.
+            assert!(
+                all.contains(&row),
+                "{name}: {args:?} should name {row}: {all}"
+            );
+            assert!(
+                args[0] == "verify" || err.contains(column),
+                "{name}: {args:?} should name column {column}: {err}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Bytes flipped at random in the file, where SQLite's own checks see nothing: every
 /// damaged copy is refused by `verify` (or by SQLite), or holds exactly what the
 /// undamaged file holds.
@@ -222,21 +303,33 @@ fn random_byte_flips_are_caught_or_change_nothing() {
 #[test]
 fn an_empty_database_beside_its_log_is_refused_not_started_again() {
     let dir = temp_dir("verify-empty");
-    let db = dir.join("lost.db");
-    std::fs::write(&db, b"").unwrap();
-    let wal = dir.join("lost.db-wal");
-    std::fs::write(&wal, vec![7u8; 8192]).unwrap();
-    let out = run(
-        "strider-coordinator",
-        &["run", FIXTURE, "--db", db.to_str().unwrap()],
-    );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("is empty but its write-ahead log") && err.contains("restore"),
-        "{err}"
-    );
-    assert_eq!(std::fs::metadata(&db).unwrap().len(), 0);
-    assert_eq!(std::fs::read(&wal).unwrap(), vec![7u8; 8192]);
+    // Emptied, then deleted (before, a deleted database started afresh and its log was
+    // deleted with the frames in it).
+    for missing in [false, true] {
+        let db = dir.join("lost.db");
+        if missing {
+            let _ = std::fs::remove_file(&db);
+        } else {
+            std::fs::write(&db, b"").unwrap();
+        }
+        let wal = dir.join("lost.db-wal");
+        std::fs::write(&wal, vec![7u8; 8192]).unwrap();
+        let out = run(
+            "strider-coordinator",
+            &["run", FIXTURE, "--db", db.to_str().unwrap()],
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("is missing or empty but its write-ahead log") && err.contains("restore"),
+            "{err}"
+        );
+        if missing {
+            assert!(!db.exists(), "a database was created beside the log");
+        } else {
+            assert_eq!(std::fs::metadata(&db).unwrap().len(), 0);
+        }
+        assert_eq!(std::fs::read(&wal).unwrap(), vec![7u8; 8192]);
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

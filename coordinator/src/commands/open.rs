@@ -91,6 +91,7 @@ pub(super) async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment
         .experiment()
         .await?
         .context("the database holds no experiment")?;
+    db.check_library_json().await?;
     Ok((db, experiment))
 }
 

@@ -8,7 +8,9 @@
 //! row's checksum never changes with the build. It detects damage, not tampering: whoever
 //! edits a row on purpose can write its checksum too.
 
-use sqlx::Row;
+use super::rows::column;
+use super::DbError;
+use sqlx::sqlite::SqliteRow;
 
 /// The columns of a candidate row the checksum covers, as stored.
 #[derive(Clone, Copy, Debug)]
@@ -58,25 +60,30 @@ pub fn selected(alias: &str) -> String {
 
 impl<'a> CandidateColumns<'a> {
     /// The columns of `row` (selected as [`SELECTED`]), and its stored checksum (`None`
-    /// for a row written before checksums).
-    pub fn from_row(row: &'a sqlx::sqlite::SqliteRow) -> (Self, Option<i64>) {
-        (
+    /// for a row written before checksums). A column whose content cannot be decoded (text
+    /// that is not UTF-8, a value of the wrong type) is an error naming it.
+    pub fn from_row(row: &'a SqliteRow) -> Result<(Self, Option<i64>), DbError> {
+        let t = "candidates";
+        let run: i64 = column(row, t, "a row", "run_id")?;
+        let number: i64 = column(row, t, format!("run {run}"), "number")?;
+        let key = format!("run {run} candidate {number}");
+        Ok((
             CandidateColumns {
-                run: row.get("run_id"),
-                number: row.get("number"),
-                generation: row.get("generation"),
-                genome: row.get("genome"),
-                outcome: row.get("outcome"),
-                kind: row.get("kind"),
-                fitness: row.get("fitness"),
-                cell: row.get("cell"),
-                placement: row.get("placement"),
-                shortfall: row.get("shortfall"),
-                standing: row.get("standing"),
-                infeasible_placement: row.get("infeasible_placement"),
+                run,
+                number,
+                generation: column(row, t, &key, "generation")?,
+                genome: column(row, t, &key, "genome")?,
+                outcome: column(row, t, &key, "outcome")?,
+                kind: column(row, t, &key, "kind")?,
+                fitness: column(row, t, &key, "fitness")?,
+                cell: column(row, t, &key, "cell")?,
+                placement: column(row, t, &key, "placement")?,
+                shortfall: column(row, t, &key, "shortfall")?,
+                standing: column(row, t, &key, "standing")?,
+                infeasible_placement: column(row, t, &key, "infeasible_placement")?,
             },
-            row.get("checksum"),
-        )
+            column(row, t, &key, "checksum")?,
+        ))
     }
 
     /// The row's checksum, stored as SQLite's 64-bit integer (the bits of the u64).

@@ -5,10 +5,10 @@
 //! the service's bottleneck).
 
 use super::checksum::CandidateColumns;
+use super::rows::column;
 use super::{standing_figure, Db, DbError};
 use crate::changes::{RunPosition, StepCommit, Write};
 use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
-use sqlx::Row;
 use std::collections::HashMap;
 use strider_common::{InvalidReason, Outcome};
 
@@ -434,8 +434,9 @@ async fn write_step(
                 .fetch_all(&mut **tx)
                 .await?
             {
-                let n = r.get::<i64, _>("n") as usize;
-                let name: String = r.get("placement");
+                let key = format!("run {run} generation 0");
+                let n = column::<i64>(&r, "candidates", &key, "n")? as usize;
+                let name: String = column(&r, "candidates", &key, "placement")?;
                 match InfeasiblePlacement::named(&name) {
                     Some(InfeasiblePlacement::New) => stats.infeasible_new = n,
                     Some(InfeasiblePlacement::Improved) => stats.infeasible_improved = n,
@@ -448,8 +449,9 @@ async fn write_step(
                 .fetch_all(&mut **tx)
                 .await?
             {
-                let n = r.get::<i64, _>("n") as usize;
-                let name: String = r.get("placement");
+                let key = format!("run {run} generation 0");
+                let n = column::<i64>(&r, "candidates", &key, "n")? as usize;
+                let name: String = column(&r, "candidates", &key, "placement")?;
                 match Placement::named(&name) {
                     Some(Placement::New) => stats.new = n,
                     Some(Placement::Improved) => stats.improved = n,

@@ -5,7 +5,7 @@
 
 pub mod checksum;
 mod group;
-mod rows;
+pub(crate) mod rows;
 
 pub use group::PreparedGroup;
 
@@ -13,7 +13,6 @@ use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
-use sqlx::Row;
 use std::path::Path;
 use std::str::FromStr;
 use strider_common::rng::CandidateNumber;
@@ -37,8 +36,10 @@ pub enum DbError {
     },
     #[error("database {path} is in use by another coordinator ({holder}): stop it first, or use another --db")]
     Locked { path: String, holder: String },
-    #[error("database {path} is empty but its write-ahead log {path}-wal holds {log_bytes} bytes: the database file was truncated or replaced, and the log alone cannot rebuild it (opening it would start the experiment over); restore {path} from a backup, or move both files away to start again")]
+    #[error("database {path} is missing or empty but its write-ahead log {path}-wal holds {log_bytes} bytes: the database file was deleted, truncated or replaced, and the log alone cannot rebuild it (opening it would start the experiment over and delete the log); restore {path} from a backup, or move the log away to start again")]
     LogWithoutDatabase { path: String, log_bytes: u64 },
+    #[error("database {path} has {links} names (hard links): SQLite keeps its write-ahead log beside the name a file is opened by, so two names mean two logs, and two coordinators or a resume under the other name would damage it; remove the other links (`find / -xdev -samefile {path}` lists them) and open it by one name")]
+    HardLinked { path: String, links: u64 },
     #[error("locking database {path} through {lock}: {source}")]
     Lock {
         path: String,
@@ -197,6 +198,22 @@ impl Db {
     /// holds it ([`DbError::Locked`], naming the holder), then opens (creating if asked)
     /// and migrates it.
     pub async fn open_exclusive(path: &Path, create: bool) -> Result<Self, DbError> {
+        // The one-writer rule is for the file, whatever names it: a symbolic link opens its
+        // target (the lock, the log and its index go beside the file, not the link), and a
+        // file with several names (hard links) is refused, for SQLite's log follows the
+        // name.
+        let real = std::fs::canonicalize(path);
+        let path = real.as_deref().unwrap_or(path);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            if let Ok(links @ 2..) = std::fs::metadata(path).map(|m| m.nlink()) {
+                return Err(DbError::HardLinked {
+                    path: path.display().to_string(),
+                    links,
+                });
+            }
+        }
         let lock = lock(path)?;
         let mut db = Self::open(path, create).await?;
         db._lock = Some(std::sync::Arc::new(lock));
@@ -205,12 +222,12 @@ impl Db {
 
     /// Opens (creating if asked) a database file and brings its schema up to date.
     pub async fn open(path: &Path, create: bool) -> Result<Self, DbError> {
-        // An empty main file beside a log with frames in it is a lost database, not a
-        // new one: SQLite would start it afresh and then discard the log.
+        // A missing or empty main file beside a log with frames in it is a lost
+        // database, not a new one: SQLite would start it afresh and then delete the log.
         let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).ok();
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
-        if let (Some(0), Some(log_bytes @ 1..)) = (size(path), size(Path::new(&wal))) {
+        if let (None | Some(0), Some(log_bytes @ 1..)) = (size(path), size(Path::new(&wal))) {
             return Err(DbError::LogWithoutDatabase {
                 path: path.display().to_string(),
                 log_bytes,
@@ -289,10 +306,10 @@ impl Db {
             .fetch_optional(&self.pool)
             .await?;
         row.map(|r| {
-            let text: String = r.get("definition");
+            let text: String = rows::column(&r, "experiment", "row 1", "definition")?;
             let e = Experiment::from_toml(&text)
                 .map_err(|e| DbError::Corrupt(format!("stored experiment: {e}")))?;
-            Ok((e, r.get("build")))
+            Ok((e, rows::column(&r, "experiment", "row 1", "build")?))
         })
         .transpose()
     }
@@ -398,18 +415,19 @@ impl Db {
             ));
         }
         for (r, spec) in rows.iter().zip(&specs) {
-            let id: i64 = r.get("id");
-            let scheme: String = r.get("scheme");
-            let seed = r.get::<i64, _>("seed") as u64;
-            let repeat = r.get::<i64, _>("repeat") as u32;
+            let id: i64 = rows::column(r, "runs", "a row", "id")?;
+            let key = format!("run {id}");
+            let scheme: String = rows::column(r, "runs", &key, "scheme")?;
+            let seed = rows::column::<i64>(r, "runs", &key, "seed")? as u64;
+            let repeat = rows::column::<i64>(r, "runs", &key, "repeat")? as u32;
             if scheme != spec.scheme.to_string() || repeat != spec.repeat || seed != spec.seed.0 {
                 out.push(format!(
                     "run {id}: stored as {scheme} repeat {repeat} seed {seed}, the experiment makes it {} repeat {} seed {}",
                     spec.scheme, spec.repeat, spec.seed.0
                 ));
             }
-            let next: i64 = r.get("next_candidate");
-            let highest: Option<i64> = r.get("highest");
+            let next: i64 = rows::column(r, "runs", &key, "next_candidate")?;
+            let highest: Option<i64> = rows::column(r, "candidates", &key, "highest")?;
             if next != highest.map_or(0, |h| h + 1) {
                 out.push(format!(
                     "run {id}: its next candidate is {next}, but the highest stored is {}",
@@ -458,6 +476,34 @@ impl Db {
         Ok(out)
     }
 
+    /// Refuses a library holder whose genome or outcome is not JSON, naming its row and
+    /// column: the views that export, analyse and report read parse both in SQLite, which
+    /// would fail saying only "malformed JSON". Holders only (at most one per cell), so
+    /// it is cheap on any database.
+    pub async fn check_library_json(&self) -> Result<(), DbError> {
+        let bad = sqlx::query(
+            "SELECT c.run_id, c.number, json_valid(c.genome) AS genome_ok \
+             FROM cells l JOIN candidates c ON c.run_id = l.run_id AND c.number = l.candidate \
+             WHERE NOT (json_valid(c.genome) AND json_valid(c.outcome)) \
+             UNION ALL \
+             SELECT c.run_id, c.number, json_valid(c.genome) AS genome_ok \
+             FROM infeasible_cells l JOIN candidates c ON c.run_id = l.run_id AND c.number = l.candidate \
+             WHERE NOT (json_valid(c.genome) AND json_valid(c.outcome)) LIMIT 1",
+        )
+        .fetch_optional(&self.pool)
+        .await?;
+        let Some(r) = bad else { return Ok(()) };
+        let t = "candidates";
+        let run: i64 = rows::column(&r, t, "a library holder", "run_id")?;
+        let number: i64 = rows::column(&r, t, format!("run {run}"), "number")?;
+        let genome_ok: i64 =
+            rows::column(&r, t, format!("run {run} candidate {number}"), "genome_ok")?;
+        let column = if genome_ok == 0 { "genome" } else { "outcome" };
+        Err(DbError::Corrupt(format!(
+            "table candidates, run {run} candidate {number} (a library holder), column {column}: not JSON (damaged)"
+        )))
+    }
+
     /// The candidate rows whose checksum ([`checksum`]) does not match their columns:
     /// of the rows the libraries hold (what the search reads again on resume) when
     /// `libraries_only`, else of every row. Rows written before checksums are skipped.
@@ -481,13 +527,20 @@ impl Db {
             format!("SELECT {cols} FROM candidates c WHERE c.checksum IS NOT NULL")
         };
         let rows = sqlx::query(&sql).fetch_all(&self.pool).await?;
-        let mut bad: Vec<(i64, i64)> = rows
-            .iter()
-            .filter_map(|r| {
-                let (columns, stored) = checksum::CandidateColumns::from_row(r);
-                (stored != Some(columns.checksum())).then_some((columns.run, columns.number))
-            })
-            .collect();
+        let mut bad: Vec<(i64, i64)> = Vec::new();
+        for r in &rows {
+            match checksum::CandidateColumns::from_row(r) {
+                Ok((columns, stored)) if stored == Some(columns.checksum()) => {}
+                Ok((columns, _)) => bad.push((columns.run, columns.number)),
+                // Content that cannot even be decoded is damage too, in the row it names;
+                // only a row that cannot be named is an error.
+                Err(e) => {
+                    let run: i64 = rows::column(r, "candidates", "a row", "run_id")?;
+                    let number = rows::column(r, "candidates", format!("run {run}"), "number");
+                    bad.push((run, number.map_err(|_| e)?));
+                }
+            }
+        }
         bad.sort_unstable();
         Ok(bad)
     }
@@ -501,20 +554,26 @@ impl Db {
         .await?;
         rows.iter()
             .map(|r| {
-                let run: i64 = r.get("run_id");
-                let number = r.get::<i64, _>("number") as u64;
+                let t = "candidates";
+                let run: i64 = rows::column(r, t, "a row", "run_id")?;
+                let number = rows::column::<i64>(r, t, format!("run {run}"), "number")? as u64;
+                let key = format!("run {run} candidate {number}");
                 let corrupt = |what: &str, e: serde_json::Error| {
                     DbError::Corrupt(format!("run {run} candidate {number}: {what}: {e}"))
                 };
                 Ok(StoredCandidate {
                     run,
                     number: CandidateNumber(number),
-                    generation: r.get::<i64, _>("generation") as u32,
-                    genome: serde_json::from_str(r.get::<&str, _>("genome"))
+                    generation: rows::column::<i64>(r, t, &key, "generation")? as u32,
+                    genome: serde_json::from_str(rows::column::<&str>(r, t, &key, "genome")?)
                         .map_err(|e| corrupt("genome", e))?,
-                    outcome: serde_json::from_str(r.get::<&str, _>("outcome"))
+                    outcome: serde_json::from_str(rows::column::<&str>(r, t, &key, "outcome")?)
                         .map_err(|e| corrupt("outcome", e))?,
-                    columns: (r.get("kind"), r.get("fitness"), r.get("cell")),
+                    columns: (
+                        rows::column(r, t, &key, "kind")?,
+                        rows::column(r, t, &key, "fitness")?,
+                        rows::column(r, t, &key, "cell")?,
+                    ),
                 })
             })
             .collect()
@@ -601,8 +660,8 @@ impl Db {
         })
         .fetch_one(&self.pool)
         .await?;
-        let (busy, log, copied): (i64, i64, i64) =
-            (row.get("busy"), row.get("log"), row.get("checkpointed"));
+        let col = |name| rows::column::<i64>(&row, "wal_checkpoint", "its result", name);
+        let (busy, log, copied) = (col("busy")?, col("log")?, col("checkpointed")?);
         Ok((busy == 0).then_some(log - copied))
     }
 

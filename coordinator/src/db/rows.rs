@@ -5,9 +5,28 @@
 use super::{standing_of, DbError, StoredElite, StoredInfeasible};
 use crate::changes::StoredPending;
 use crate::library::{Elite, GenerationStats, InfeasibleElite};
+use sqlx::sqlite::{Sqlite, SqliteRow};
+use sqlx::Row;
+use std::fmt::Display;
 use strider_common::experiment::RunSpec;
 use strider_common::rng::{CandidateNumber, RunSeed};
 use strider_common::{CellIndex, Genome, Outcome, Scheme, Shortfall};
+
+/// Column `column` of `row`, a row of `table` that `key` names ("run 0 candidate 12"):
+/// damaged content (text that is not UTF-8, a value of the wrong type) is an error naming
+/// all three, never a panic.
+pub(crate) fn column<'r, T>(
+    row: &'r SqliteRow,
+    table: &str,
+    key: impl Display,
+    column: &str,
+) -> Result<T, DbError>
+where
+    T: sqlx::Decode<'r, Sqlite> + sqlx::Type<Sqlite>,
+{
+    row.try_get(column)
+        .map_err(|e| DbError::Corrupt(format!("table {table}, {key}, column {column}: {e}")))
+}
 
 /// A `runs` row.
 #[derive(sqlx::FromRow)]
@@ -46,8 +65,12 @@ pub(super) struct EliteRow {
 impl EliteRow {
     /// Its cell and elite.
     pub fn elite(self) -> Result<(CellIndex, Elite), DbError> {
-        let genome: Genome = serde_json::from_str(&self.genome)
-            .map_err(|x| DbError::Corrupt(format!("elite genome of run {}: {x}", self.run_id)))?;
+        let genome: Genome = serde_json::from_str(&self.genome).map_err(|x| {
+            DbError::Corrupt(format!(
+                "table elites, run {} cell {} (candidate {}), column genome: {x}",
+                self.run_id, self.cell, self.candidate
+            ))
+        })?;
         Ok((
             CellIndex(self.cell as u32),
             Elite {
@@ -73,15 +96,20 @@ pub(super) struct InfeasibleRow {
 impl InfeasibleRow {
     /// Its cell and elite.
     pub fn elite(self) -> Result<(CellIndex, InfeasibleElite), DbError> {
-        let run = self.run_id;
-        let corrupt =
-            |what: String| DbError::Corrupt(format!("infeasible elite of run {run}: {what}"));
-        let shortfall = shortfall(&self.shortfall).map_err(corrupt)?;
+        let (run, cell, candidate) = (self.run_id, self.cell, self.candidate);
+        let corrupt = |what: String| {
+            DbError::Corrupt(format!(
+                "table infeasible_elites, run {run} cell {cell} (candidate {candidate}): {what}"
+            ))
+        };
+        let shortfall =
+            shortfall(&self.shortfall).map_err(|x| corrupt(format!("column shortfall: {x}")))?;
         Ok((
             CellIndex(self.cell as u32),
             InfeasibleElite {
                 candidate: CandidateNumber(self.candidate as u64),
-                genome: serde_json::from_str(&self.genome).map_err(|x| corrupt(x.to_string()))?,
+                genome: serde_json::from_str(&self.genome)
+                    .map_err(|x| corrupt(format!("column genome: {x}")))?,
                 standing: standing_of(shortfall, self.standing),
                 shortfall,
             },
@@ -108,6 +136,7 @@ impl TryFrom<PendingRow> for StoredPending {
     type Error = DbError;
 
     fn try_from(r: PendingRow) -> Result<Self, DbError> {
+        let (run, number) = (r.run_id, r.number);
         Ok(StoredPending {
             run: r.run_id,
             number: CandidateNumber(r.number as u64),
@@ -117,7 +146,11 @@ impl TryFrom<PendingRow> for StoredPending {
                 .outcome
                 .map(|o| serde_json::from_str::<Outcome>(&o))
                 .transpose()
-                .map_err(|e| DbError::Corrupt(format!("pending outcome: {e}")))?,
+                .map_err(|e| {
+                    DbError::Corrupt(format!(
+                        "table pending, run {run} candidate {number}, column outcome: {e}"
+                    ))
+                })?,
         })
     }
 }
@@ -185,14 +218,19 @@ impl TryFrom<EliteWithOutcomeRow> for StoredElite {
     fn try_from(r: EliteWithOutcomeRow) -> Result<Self, DbError> {
         let run = r.elite.run_id;
         let (cell, elite) = r.elite.elite()?;
+        let candidate = elite.candidate.0;
         Ok(StoredElite {
             run,
             cell,
             candidate: elite.candidate,
             fitness: elite.fitness,
             genome: elite.genome,
-            outcome: serde_json::from_str(&r.outcome)
-                .map_err(|e| DbError::Corrupt(format!("elite outcome: {e}")))?,
+            outcome: serde_json::from_str(&r.outcome).map_err(|e| {
+                DbError::Corrupt(format!(
+                    "table candidates, run {run} candidate {candidate} (the elite of cell {}), column outcome: {e}",
+                    cell.0
+                ))
+            })?,
         })
     }
 }
@@ -217,8 +255,12 @@ impl TryFrom<InfeasibleWithOutcomeRow> for StoredInfeasible {
             shortfall: elite.shortfall,
             standing: figure,
             genome: elite.genome,
-            outcome: serde_json::from_str(&r.outcome)
-                .map_err(|e| DbError::Corrupt(format!("infeasible elite: {e}")))?,
+            outcome: serde_json::from_str(&r.outcome).map_err(|e| {
+                DbError::Corrupt(format!(
+                    "table candidates, candidate {} (the infeasible elite of cell {}), column outcome: {e}",
+                    elite.candidate.0, cell.0
+                ))
+            })?,
         })
     }
 }
