@@ -410,11 +410,18 @@ impl Scheduler {
         }
     }
 
-    /// A result of `worker` for `key` was refused (malformed, or not what the trial
-    /// gives): its lease ends with an attempt counted, so a candidate whose results are
-    /// always refused fails instead of going round for ever.
-    pub fn refused(&mut self, worker: WorkerId, key: CandidateKey, why: &str) {
-        self.end_lease(key, |w| w == worker, Some(why));
+    /// Whether `key` needs no result any more: it has one, or was applied or dropped. A
+    /// result for it is a duplicate, acknowledged and ignored.
+    pub fn answered(&self, key: CandidateKey) -> bool {
+        let Some(r) = self.runs.get(key.run as usize) else {
+            return false;
+        };
+        let number = key.number.0;
+        match r.step.get(&number) {
+            Some(p) if p.generation == key.generation => matches!(p.state, State::Resolved(_)),
+            Some(_) => true,
+            None => number < r.record.next_candidate || number < r.frontier,
+        }
     }
 
     /// `worker` is gone: what it held waits again, and each candidate it had begun

@@ -479,20 +479,22 @@ fn a_stalled_worker_is_charged_once_and_a_candidate_that_stalls_three_fails() {
 }
 
 #[test]
-fn a_result_refused_every_time_fails_its_candidate() {
+fn a_candidate_is_answered_once_it_has_a_result_and_unknown_ones_never_are() {
     let e = experiment();
     let mut s = fresh(&e, 2);
     let now = Instant::now();
-    let victim = first_offspring(&e, &mut s, now);
-    s.disconnect(WorkerId(0), "stream dropped");
-    s.take_writes();
-    for w in 1..=2u64 {
-        let got = s.lease(WorkerId(w), now, 100);
-        assert!(got.iter().any(|a| a.key == victim.key));
-        s.refused(WorkerId(w), victim.key, "outcome.valid.cell does not match");
-        s.disconnect(WorkerId(w), "refused");
-    }
-    assert!(failed_in(&s.take_writes(), victim.key));
+    let a = first_offspring(&e, &mut s, now);
+    assert!(!s.answered(a.key), "leased, not answered");
+    let o = outcome_of(&e, &a);
+    assert_eq!(s.accept(WorkerId(0), a.key, o, 0.0), Ok(Accepted::Stored));
+    assert!(s.answered(a.key));
+    let unknown = CandidateKey {
+        number: CandidateNumber(1_000_000),
+        ..a.key
+    };
+    assert!(!s.answered(unknown));
+    let no_run = CandidateKey { run: 99, ..a.key };
+    assert!(!s.answered(no_run));
 }
 
 #[test]

@@ -58,8 +58,14 @@ async fn open(channel: &Channel, first: WorkerMessage) -> Result<Stream, Status>
     Ok(Stream { tx, rx })
 }
 
-/// Opens a stream and reads the Welcome and the first assignment.
+/// Opens a stream and reads the Welcome and the first assignment (within 60 s).
 async fn assigned(channel: &Channel) -> (Stream, v1::Assignment) {
+    tokio::time::timeout(Duration::from_secs(60), first_assignment(channel))
+        .await
+        .expect("no assignment came within 60 s")
+}
+
+async fn first_assignment(channel: &Channel) -> (Stream, v1::Assignment) {
     let mut s = open(channel, hello(1)).await.unwrap();
     let welcome = s.rx.message().await.unwrap().unwrap();
     assert!(matches!(
@@ -73,20 +79,44 @@ async fn assigned(channel: &Channel) -> (Stream, v1::Assignment) {
 }
 
 /// Sends a result and returns the status that ends the stream.
-async fn refused(mut s: Stream, id: v1::CandidateId, outcome: v1::Outcome) -> Status {
-    let result = WorkerMessage {
-        kind: Some(worker_message::Kind::Result(v1::Result {
-            id: Some(id),
-            outcome: Some(outcome),
-            seconds: 0.1,
-        })),
-    };
-    s.tx.send(result).await.unwrap();
+async fn refused_ending(mut s: Stream, id: v1::CandidateId, outcome: v1::Outcome) -> Status {
+    s.tx.send(result(id, outcome)).await.unwrap();
     loop {
         match s.rx.message().await {
             Ok(Some(_)) => {} // further assignments
             Ok(None) => panic!("the stream ended without an error"),
             Err(status) => return status,
+        }
+    }
+}
+
+fn result(id: v1::CandidateId, outcome: v1::Outcome) -> WorkerMessage {
+    WorkerMessage {
+        kind: Some(worker_message::Kind::Result(v1::Result {
+            id: Some(id),
+            outcome: Some(outcome),
+            seconds: 0.1,
+        })),
+    }
+}
+
+/// Sends a result and returns the refusal that answers it: the stream goes on.
+async fn refused(s: &mut Stream, id: v1::CandidateId, outcome: v1::Outcome) -> v1::ResultRefused {
+    s.tx.send(result(id, outcome)).await.unwrap();
+    tokio::time::timeout(Duration::from_secs(60), next_refusal(s))
+        .await
+        .unwrap_or_else(|_| panic!("no refusal came within 60 s for {id:?}"))
+}
+
+async fn next_refusal(s: &mut Stream) -> v1::ResultRefused {
+    loop {
+        match s.rx.message().await {
+            Ok(Some(CoordinatorMessage {
+                kind: Some(coordinator_message::Kind::ResultRefused(r)),
+            })) => return r,
+            Ok(Some(_)) => {} // further assignments
+            Ok(None) => panic!("the stream ended instead of a refusal"),
+            Err(status) => panic!("the stream ended instead of a refusal: {status:?}"),
         }
     }
 }
@@ -248,8 +278,25 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             .unwrap_err();
         assert_eq!(s.code(), Code::FailedPrecondition);
 
-        // NaN fitness.
-        let (st, a) = assigned(&channel).await;
+        // A message over the size limit (1 MiB): refused with the reason, not an OK end.
+        let (big, b) = assigned(&channel).await;
+        let mut huge = real_outcome(&b);
+        huge.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
+            fitness: 1.0,
+            stats: Some(v1::TrialStats::default()),
+            features: vec![0.5; 200_000],
+            cell: 0,
+        }));
+        let s = refused_ending(big, b.id.unwrap(), huge).await;
+        assert_eq!(s.code(), Code::ResourceExhausted);
+        assert!(s.message().contains("too large"), "{}", s.message());
+
+        // A refused result changes nothing and the session goes on: the same stream
+        // answers every refusal below, then still takes the good result of the same
+        // candidate (before, each refusal ended the session and cost the candidate an
+        // attempt: five refusals failed it).
+        let (mut st, a) = assigned(&channel).await;
+        // NaN fitness, five times over.
         let mut nan = real_outcome(&a);
         nan.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
             fitness: f64::NAN,
@@ -257,48 +304,41 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             features: vec![0.0; 6],
             cell: 0,
         }));
-        let s = refused(st, a.id.unwrap(), nan).await;
-        assert_eq!(s.code(), Code::InvalidArgument);
-        assert!(s.message().contains("fitness"), "{}", s.message());
-
-        // A message over the size limit (1 MiB): refused with the reason, not an OK end.
-        let (st, a) = assigned(&channel).await;
-        let mut huge = real_outcome(&a);
-        huge.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
-            fitness: 1.0,
-            stats: Some(v1::TrialStats::default()),
-            features: vec![0.5; 200_000],
-            cell: 0,
-        }));
-        let s = refused(st, a.id.unwrap(), huge).await;
-        assert_eq!(s.code(), Code::ResourceExhausted);
-        assert!(s.message().contains("too large"), "{}", s.message());
+        for _ in 0..5 {
+            let r = refused(&mut st, a.id.unwrap(), nan.clone()).await;
+            assert_eq!(r.code, "InvalidArgument");
+            assert!(r.reason.contains("fitness"), "{}", r.reason);
+            assert_eq!(r.id, a.id);
+        }
 
         // A candidate nobody leased to this worker.
-        let (st, a) = assigned(&channel).await;
         let mut unknown = a.id.unwrap();
         unknown.number += 1_000_000;
-        let s = refused(st, unknown, real_outcome(&a)).await;
-        assert_eq!(s.code(), Code::FailedPrecondition);
+        let r = refused(&mut st, unknown, real_outcome(&a)).await;
+        assert_eq!(r.code, "FailedPrecondition");
         assert!(
-            s.message().contains("not leased to this worker"),
+            r.reason.contains("not leased to this worker"),
             "{}",
-            s.message()
+            r.reason
         );
 
-        // Another run's candidate (same number, the other run).
-        let (st, a) = assigned(&channel).await;
-        let mut foreign = a.id.unwrap();
-        foreign.run = 1 - foreign.run;
-        let s = refused(st, foreign, real_outcome(&a)).await;
-        assert_eq!(s.code(), Code::FailedPrecondition);
+        // A candidate leased to another worker (a result for one already settled would
+        // be a duplicate, ignored without a word).
+        let (other, b) = assigned(&channel).await;
+        let r = refused(&mut st, b.id.unwrap(), real_outcome(&b)).await;
+        assert_eq!(r.code, "FailedPrecondition");
+        assert!(
+            r.reason.contains("not leased to this worker"),
+            "{}",
+            r.reason
+        );
+        drop(other);
 
         // A run that does not exist.
-        let (st, a) = assigned(&channel).await;
         let mut missing = a.id.unwrap();
         missing.run = 9;
-        let s = refused(st, missing, real_outcome(&a)).await;
-        assert_eq!(s.code(), Code::FailedPrecondition);
+        let r = refused(&mut st, missing, real_outcome(&a)).await;
+        assert_eq!(r.code, "FailedPrecondition");
 
         // Paging with a token the server never issued.
         let s = client
@@ -312,16 +352,16 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
         assert_eq!(s.code(), Code::InvalidArgument);
         assert!(s.message().contains("page_token"), "{}", s.message());
 
-        // Control: a well-formed result is stored, so the checks below can see writes.
-        let (st, a) = assigned(&channel).await;
-        let good = WorkerMessage {
-            kind: Some(worker_message::Kind::Result(v1::Result {
-                id: a.id,
-                outcome: Some(real_outcome(&a)),
-                seconds: 0.1,
-            })),
-        };
-        st.tx.send(good).await.unwrap();
+        // The refused candidate's good result, on the same stream, is stored; sent again
+        // it is a duplicate, acknowledged and ignored without ending the stream.
+        st.tx
+            .send(result(a.id.unwrap(), real_outcome(&a)))
+            .await
+            .unwrap();
+        st.tx
+            .send(result(a.id.unwrap(), real_outcome(&a)))
+            .await
+            .unwrap();
         let deadline = Instant::now() + Duration::from_secs(60);
         // The writer commits in milliseconds; poll the file until the result is there.
         while results_in(&db).0 < 1 {
@@ -332,6 +372,21 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             );
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
+        // Then a malformed message of another kind still ends the session with its reason.
+        st.tx.send(WorkerMessage { kind: None }).await.unwrap();
+        let ended = loop {
+            match st.rx.message().await {
+                Ok(Some(_)) => {}
+                Ok(None) => panic!("the stream ended without an error"),
+                Err(status) => break status,
+            }
+        };
+        assert_eq!(ended.code(), Code::InvalidArgument);
+        assert!(
+            ended.message().contains("empty message"),
+            "{}",
+            ended.message()
+        );
         drop(st);
         // Every session, refused or not, ends by recording what its worker sent.
         while sqlite_count(
@@ -347,9 +402,17 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
     });
-    // Exactly the one good result; none of the refused ones.
+    // Exactly the one good result; none of the refused ones, and no attempt counted.
     let (stored, _) = results_in(&db);
     assert_eq!(stored, 1);
+    assert_eq!(
+        sqlite_count(
+            &db,
+            "SELECT COUNT(*) FROM candidates WHERE outcome LIKE '%evaluation_failed%'"
+        ) + sqlite_count(&db, "SELECT COALESCE(SUM(attempts), 0) FROM pending"),
+        0,
+        "a refusal counted an attempt"
+    );
     drop(coordinator);
     let (_, counted) = results_in(&db);
     assert_eq!(counted, 1, "the workers table counts one result in all");

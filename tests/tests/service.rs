@@ -430,6 +430,34 @@ fn a_second_coordinator_on_the_same_database_is_refused_naming_the_first() {
             "{args:?}: {err}"
         );
     }
+    // The rule is for the file, not the name (before, both of these started a second
+    // writer: the hard link's own log then shrank the database to a quarter, unreadable).
+    let symlink = dir.join("symlink.db");
+    std::os::unix::fs::symlink(&db, &symlink).unwrap();
+    let hard = dir.join("hard.db");
+    for (name, wanted) in [
+        (&symlink, format!("pid {}", first.pid())),
+        (&hard, "has 2 names (hard links)".to_string()),
+    ] {
+        if name == &hard {
+            std::fs::hard_link(&db, &hard).unwrap();
+        }
+        let out = Command::new(binary("strider-coordinator"))
+            .args(["run", FIXTURE, "--db", name.to_str().unwrap()])
+            .current_dir(strider_tests::workspace_root())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name:?}: {err}");
+        assert!(err.contains(&wanted), "{name:?}: {err}");
+    }
+    let mut log_of_the_link = hard.as_os_str().to_owned();
+    log_of_the_link.push("-wal");
+    assert!(
+        !Path::new(&log_of_the_link).exists(),
+        "the refused open left a log beside the link"
+    );
+    std::fs::remove_file(&hard).unwrap();
     // The first goes on undisturbed, and stops cleanly.
     first.signal(libc::SIGTERM);
     assert!(first.wait_exit(FINISH).success(), "{}", first.log());

@@ -371,6 +371,12 @@ async fn session(
                 Ok(Some(v1::CoordinatorMessage { kind: Some(coordinator_message::Kind::Finished(_)) })) => {
                     return Ok(End::Finished);
                 }
+                // Nothing changed on the coordinator's side; a result refused is a bug of
+                // this build or a damaged message, for the log.
+                Ok(Some(v1::CoordinatorMessage { kind: Some(coordinator_message::Kind::ResultRefused(r)) })) => {
+                    let key = r.id.as_ref().map(|k| CandidateKey::from(k).to_string()).unwrap_or_default();
+                    tracing::error!(candidate = %key, code = %r.code, "the coordinator refused a result: {}", r.reason);
+                }
                 Ok(Some(_)) => {}
                 Ok(None) => return lost("the coordinator closed the stream".into()),
                 // Past Welcome, a refusal is of one message (a result the coordinator

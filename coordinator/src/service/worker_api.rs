@@ -104,6 +104,7 @@ impl WorkerService for WorkerApi {
         let session = Session {
             shared,
             id,
+            name: hello.worker_name.clone(),
             slots: hello.slots as usize,
             held: HashSet::new(),
             draining: false,
@@ -118,6 +119,8 @@ impl WorkerService for WorkerApi {
 struct Session {
     shared: Arc<Shared>,
     id: WorkerId,
+    /// The name the worker gave (`--name`, or host and pid), for the logs.
+    name: String,
     slots: usize,
     /// Candidates leased to this worker and not answered by it. A lease that expired
     /// stays here: the worker may still be simulating it (it stalled, then went on), and
@@ -165,14 +168,32 @@ impl Session {
                             _ => None,
                         };
                         if let Err(status) = self.handle(m) {
-                            tracing::warn!(worker = self.id.0, "refused: {}", status.message());
-                            // A misbehaving worker is cut off; what it held waits for others
-                            // (the session's end below). A refused result costs its candidate
-                            // an attempt: a result refused every time must not go round for ever.
+                            // A refused result changes nothing: no attempt is counted and
+                            // the session goes on; the lease stands, so the candidate's
+                            // fate is decided by real failures only (the worker lost, or
+                            // stalled past the lease: a worker whose results are always
+                            // refused fails its candidates that way, in bounded time).
                             if let Some(key) = result_of {
-                                let why = format!("result refused: {}", status.message());
-                                self.shared.with(true, |s| s.refused(self.id, key, &why));
+                                tracing::warn!(
+                                    worker = self.id.0,
+                                    name = %self.name,
+                                    %key,
+                                    "result refused, nothing changed: {}",
+                                    status.message()
+                                );
+                                let m = coordinator_message::Kind::ResultRefused(v1::ResultRefused {
+                                    id: Some(key.into()),
+                                    code: format!("{:?}", status.code()),
+                                    reason: status.message().to_string(),
+                                });
+                                if self.tx.send(message(m)).await.is_err() {
+                                    break CONNECTION_LOST.into();
+                                }
+                                continue;
                             }
+                            tracing::warn!(worker = self.id.0, "refused: {}", status.message());
+                            // Any other malformed message cuts the worker off; what it held
+                            // waits for others (the session's end below).
                             let reason = format!("refused: {}", status.message());
                             let _ = self.tx.send(Err(status)).await;
                             break reason;
@@ -293,6 +314,12 @@ impl Session {
     fn result(&mut self, r: v1::Result) -> Result<(), Status> {
         let key = key_from_wire(r.id.as_ref())?;
         if !self.held.contains(&key) {
+            // A result for a candidate that has one already (this worker's own, sent
+            // twice, or another's): acknowledged and ignored, as the protocol says.
+            if self.shared.with(false, |s| s.answered(key)) {
+                tracing::debug!(worker = self.id.0, %key, "duplicate result ignored");
+                return Ok(());
+            }
             return Err(Status::failed_precondition(format!(
                 "{key} is not leased to this worker"
             )));
