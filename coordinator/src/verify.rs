@@ -10,6 +10,7 @@
 
 use crate::changes::{RunRecord, Write};
 use crate::db::StoredCandidate;
+use crate::library::GenerationStats;
 use crate::scheduler::{Scheduler, WorkerId};
 use std::collections::HashMap;
 use std::collections::HashSet;
@@ -26,6 +27,10 @@ pub struct Verdict {
     pub replayed: u64,
     /// Where the stored state and the replay part, in run order.
     pub problems: Vec<String>,
+    /// Each run's generations as the replay completed them, with their statistics (by
+    /// run index; generation 0's placement counts are left out: the service fills them
+    /// from every stored draw, the replay sees only the applied ones).
+    pub generations: Vec<Vec<(u32, GenerationStats)>>,
 }
 
 /// Replays `experiment` from `candidates` and compares with `stored` (the runs as the
@@ -35,7 +40,10 @@ pub fn replay(
     stored: &[RunRecord],
     candidates: &[StoredCandidate],
 ) -> Verdict {
-    let mut verdict = Verdict::default();
+    let mut verdict = Verdict {
+        generations: vec![Vec::new(); stored.len()],
+        ..Verdict::default()
+    };
     let specs = experiment.runs();
     if specs.len() != stored.len() {
         verdict.problems.push(format!(
@@ -123,6 +131,9 @@ pub fn replay(
             let Some(&run) = index.get(&step.run) else {
                 continue;
             };
+            if let Some(completed) = step.completed {
+                verdict.generations[run as usize].push(completed);
+            }
             for applied in &step.candidates {
                 let n = applied.number.0;
                 match rows.get(&(run, n)) {
@@ -228,4 +239,52 @@ fn compare<K: PartialEq + std::fmt::Debug, V: PartialEq>(
             return;
         }
     }
+}
+
+/// Where `stored` (a run's `generations` rows: generation, evaluations, statistics) and
+/// `replayed` (what the replay completed) differ, at most `MAX_PROBLEMS_PER_RUN`.
+/// Generation 0's placement counts are not compared (see [`Verdict::generations`]); the
+/// last stored generation may be one the replay has not completed (its step still open
+/// when the history ends) only if nothing follows it.
+pub fn generation_problems(
+    run: u32,
+    stored: &[(u32, u64, GenerationStats)],
+    replayed: &[(u32, GenerationStats)],
+) -> Vec<String> {
+    let mut out = Vec::new();
+    let comparable = |g: u32, mut s: GenerationStats| {
+        if g == 0 {
+            let stats = GenerationStats {
+                coverage: s.coverage,
+                elites: s.elites,
+                max_fitness: s.max_fitness,
+                mean_fitness: s.mean_fitness,
+                min_fitness: s.min_fitness,
+                qd_score: s.qd_score,
+                infeasible_elites: s.infeasible_elites,
+                infeasible_only: s.infeasible_only,
+                ..GenerationStats::default()
+            };
+            s = stats;
+        }
+        s
+    };
+    if stored.len() != replayed.len() {
+        out.push(format!(
+            "run {run}: the generations table holds {} generations, the replay completes {}",
+            stored.len(),
+            replayed.len()
+        ));
+    }
+    for ((g, _, s), (rg, r)) in stored.iter().zip(replayed) {
+        if g != rg || comparable(*g, *s) != comparable(*rg, *r) {
+            out.push(format!(
+                "run {run}: the generations table's row for generation {g} does not hold what the replay gives for generation {rg}: stored {s:?}, replayed {r:?}"
+            ));
+            if out.len() >= MAX_PROBLEMS_PER_RUN {
+                break;
+            }
+        }
+    }
+    out
 }

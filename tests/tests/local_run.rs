@@ -36,6 +36,7 @@ fn integrity(db: &Path) -> String {
             .integrity_check()
             .await
             .unwrap()
+            .join("\n")
     })
 }
 

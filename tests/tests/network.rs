@@ -189,6 +189,7 @@ fn a_worker_cut_off_and_reconnected_changes_nothing() {
             .integrity_check()
             .await
             .unwrap()
+            .join("\n")
     });
     assert_eq!(integrity, "ok");
     drop(net);

@@ -77,6 +77,7 @@ fn integrity(db: &Path) -> String {
             .integrity_check()
             .await
             .unwrap()
+            .join("\n")
     })
 }
 

@@ -108,6 +108,23 @@ fn verify_and_resume_catch_edits_sqlite_cannot_see() {
     assert_eq!(code, 1, "{out}");
     resume_refused(&next, "next candidate");
 
+    // A generation's stored figures (before, verify said the file agreed with itself, and
+    // the curves and the generations export read the changed figure).
+    let generations = corrupted(
+        &db,
+        "generations",
+        "UPDATE generations SET mean_fitness = mean_fitness * 1.01 + 0.001 \
+         WHERE run_id = 0 AND generation = 2",
+    );
+    let (code, out) = verify(&generations, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("the generations table's row for generation 2"),
+        "{out}"
+    );
+    // An undamaged file passes SQLite's own check, which verify now runs.
+    assert!(verify(&db, "0").1.contains("integrity check: ok"));
+
     // An elite's fitness column.
     let fitness = corrupted(
         &db,

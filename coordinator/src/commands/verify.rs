@@ -56,6 +56,31 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         damaged.len()
     );
     verdict.problems.extend(crate::db::damaged_rows(&damaged));
+    // Each run's per-generation figures, which nothing downstream recomputes (curves,
+    // the generations export): against the replay's.
+    for (i, run) in runs.iter().enumerate() {
+        let stored = db.generations(run.id).await?;
+        let replayed = verdict.generations.get(i).map_or(&[][..], |g| &g[..]);
+        verdict.problems.extend(crate::verify::generation_problems(
+            i as u32, &stored, replayed,
+        ));
+    }
+    outln!("checked every run's generations table against the replay");
+    // SQLite's own structure: pages, indexes, constraints (a flipped byte in a table's
+    // b-tree that every query above happened to read past).
+    let integrity = db.integrity_check().await?;
+    if integrity != ["ok"] {
+        verdict.problems.extend(
+            integrity
+                .iter()
+                .take(5)
+                .map(|line| format!("SQLite's integrity check: {line}")),
+        );
+    }
+    outln!(
+        "SQLite's integrity check: {}",
+        if integrity == ["ok"] { "ok" } else { "failed" }
+    );
     // Every k-th stored candidate whose outcome a worker computed (a candidate that
     // failed for want of a worker has nothing to reproduce).
     let eligible: Vec<&StoredCandidate> = candidates

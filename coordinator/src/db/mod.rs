@@ -476,6 +476,18 @@ impl Db {
         Ok(out)
     }
 
+    /// SQLite's `PRAGMA integrity_check`: `["ok"]`, or what it found (pages, indexes,
+    /// constraints), at most 100 lines.
+    pub async fn integrity_check(&self) -> Result<Vec<String>, DbError> {
+        let lines = sqlx::query("PRAGMA integrity_check(100)")
+            .fetch_all(&self.pool)
+            .await?;
+        lines
+            .iter()
+            .map(|r| rows::column::<String>(r, "integrity_check", "its result", "integrity_check"))
+            .collect()
+    }
+
     /// Refuses a library holder whose genome or outcome is not JSON, naming its row and
     /// column: the views that export, analyse and report read parse both in SQLite, which
     /// would fail saying only "malformed JSON". Holders only (at most one per cell), so
@@ -711,13 +723,6 @@ impl Db {
             let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
         }
         Ok(())
-    }
-
-    /// `PRAGMA integrity_check`: "ok" for a sound file.
-    pub async fn integrity_check(&self) -> Result<String, DbError> {
-        Ok(sqlx::query_scalar("PRAGMA integrity_check")
-            .fetch_one(&self.pool)
-            .await?)
     }
 }
 
