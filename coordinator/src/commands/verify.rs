@@ -66,6 +66,10 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         ));
     }
     outln!("checked every run's generations table against the replay");
+    // The step in flight (what a resume reads first): every row decodes, or the error
+    // names it.
+    let pending = db.pending().await?;
+    outln!("read the {} rows of the current steps", pending.len());
     // SQLite's own structure: pages, indexes, constraints (a flipped byte in a table's
     // b-tree that every query above happened to read past).
     let integrity = db.integrity_check().await?;
