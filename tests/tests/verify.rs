@@ -260,6 +260,49 @@ fn text_that_is_not_utf8_is_refused_naming_its_row_never_a_panic() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The read commands write nothing: a `VACUUM INTO` backup (rollback journal, as SQLite
+/// writes it) keeps every byte through verify, export, analyse and report, and gains no
+/// log or index files (before: its journal mode was switched to WAL, changing its hash).
+#[test]
+fn read_commands_leave_a_backup_byte_for_byte_as_it_was() {
+    let dir = temp_dir("verify-readonly");
+    let db = dir.join("whole.db");
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            FIXTURE,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+    let backup = dir.join("backup.db");
+    sqlite(&db, &format!("VACUUM INTO '{}'", backup.display()));
+    let before = std::fs::read(&backup).unwrap();
+    let b = backup.to_str().unwrap();
+    let out_dir = dir.join("report");
+    for args in [
+        vec!["verify", "--db", b, "--sample", "0"],
+        vec!["export", "--db", b],
+        vec!["analyse", "--db", b],
+        vec!["report", "--db", b, "--out", out_dir.to_str().unwrap()],
+    ] {
+        run_ok("strider-coordinator", &args);
+        assert!(
+            std::fs::read(&backup).unwrap() == before,
+            "{args:?} changed the backup"
+        );
+        for side in ["-wal", "-shm"] {
+            let mut p = backup.as_os_str().to_owned();
+            p.push(side);
+            assert!(!Path::new(&p).exists(), "{args:?} left {side} beside it");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Bytes flipped at random in the file, where SQLite's own checks see nothing: every
 /// damaged copy is refused by `verify` (or by SQLite), or holds exactly what the
 /// undamaged file holds.

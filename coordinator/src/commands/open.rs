@@ -79,14 +79,9 @@ pub(super) async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment
     if !path.exists() {
         bail!("no database at {}", path.display());
     }
-    // A file this process may not write (a read-only mount, a backup kept read-only)
-    // fails the usual open (it migrates and sets the log mode): read it as it is.
-    let db = match Db::open(path, false).await {
-        Ok(db) => db,
-        Err(writable) => Db::open_read_only(path)
-            .await
-            .map_err(|read_only| anyhow::anyhow!("{writable}; read-only, {read_only}"))?,
-    };
+    // Read-only: nothing written to the file or its backups (an older schema is migrated
+    // under the writer's lock first).
+    let db = Db::open_for_reading(path).await?;
     let (experiment, _) = db
         .experiment()
         .await?

@@ -267,12 +267,69 @@ impl Db {
         Ok(Self { pool, _lock: None })
     }
 
-    /// Opens a database on a read-only mount or without write permission (a backup, a
-    /// colleague's copy) for reading: immutable, so SQLite creates no lock or log files
-    /// beside it and reads only the main file (whole after a clean stop, and always in a
-    /// backup). Its schema must be current: an older file is migrated by opening it
-    /// writable once.
-    pub async fn open_read_only(path: &Path) -> Result<Self, DbError> {
+    /// Opens an existing database to read it, writing nothing to it or beside it: with no
+    /// write-ahead log beside it (a clean stop, a backup, a read-only mount) its main file
+    /// is whole and is read as immutable (SQLite then creates no log or index either);
+    /// with one (a coordinator running, or killed), read-only through the log. An older
+    /// schema is brought up to date first, and only under the writer's lock
+    /// ([`Db::open_exclusive`]: refused while a coordinator holds it).
+    pub async fn open_for_reading(path: &Path) -> Result<Self, DbError> {
+        let mut wal = path.as_os_str().to_owned();
+        wal.push("-wal");
+        let reader = if Path::new(&wal).exists() {
+            Self::open_reader(path).await?
+        } else {
+            Self::open_immutable(path).await?
+        };
+        if reader.schema_current().await? {
+            return Ok(reader);
+        }
+        reader.pool.close().await;
+        let writer = Self::open_exclusive(path, false).await.map_err(|e| {
+            DbError::Corrupt(format!(
+                "{} has an older schema, brought up to date only by its writer: {e}",
+                path.display()
+            ))
+        })?;
+        writer.pool.close().await;
+        drop(writer);
+        Self::open_immutable(path).await
+    }
+
+    /// A read-only connection pool on `path`, nothing set that writes.
+    async fn open_reader(path: &Path) -> Result<Self, DbError> {
+        let open_error = |e| DbError::Open {
+            path: path.display().to_string(),
+            source: e,
+        };
+        let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
+            .map_err(open_error)?
+            .read_only(true);
+        let pool = SqlitePoolOptions::new()
+            .max_connections(4)
+            .connect_with(options)
+            .await
+            .map_err(open_error)?;
+        // A read that needs the log's index fails here, not at the first query.
+        sqlx::query("SELECT COUNT(*) FROM sqlite_master")
+            .fetch_one(&pool)
+            .await
+            .map_err(open_error)?;
+        Ok(Self { pool, _lock: None })
+    }
+
+    /// Whether every migration this build knows is applied.
+    async fn schema_current(&self) -> Result<bool, DbError> {
+        let applied: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success")
+                .fetch_one(&self.pool)
+                .await?;
+        Ok(applied >= sqlx::migrate!("./migrations").iter().count() as i64)
+    }
+
+    /// Opens a database as immutable: SQLite reads only the main file and creates nothing
+    /// beside it (a clean stop's file, a backup, a read-only mount).
+    async fn open_immutable(path: &Path) -> Result<Self, DbError> {
         let open_error = |e| DbError::Open {
             path: path.display().to_string(),
             source: e,
@@ -286,17 +343,6 @@ impl Db {
             .connect_with(options)
             .await
             .map_err(open_error)?;
-        let applied: i64 =
-            sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success")
-                .fetch_one(&pool)
-                .await?;
-        let known = sqlx::migrate!("./migrations").iter().count() as i64;
-        if applied < known {
-            return Err(DbError::Corrupt(format!(
-                "{} has an older schema ({applied} of {known} migrations) and cannot be brought up to date read-only: copy it somewhere writable first",
-                path.display()
-            )));
-        }
         Ok(Self { pool, _lock: None })
     }
 
