@@ -329,14 +329,14 @@ impl Scheduler {
         outcome: Outcome,
         seconds: f64,
     ) -> Result<Accepted, Refusal> {
+        if self.answered(key) {
+            return Ok(Accepted::Duplicate);
+        }
         let i = key.run as usize;
         let r = self.runs.get_mut(i).ok_or(Refusal::NoSuchRun(key.run))?;
         let number = key.number.0;
         match r.step.get_mut(&number) {
             Some(p) if p.generation == key.generation => {
-                if matches!(p.state, State::Resolved(_)) {
-                    return Ok(Accepted::Duplicate);
-                }
                 r.waiting.remove(&number);
                 p.state = State::Resolved(outcome.clone());
                 self.writes.push(Write::Resolved {
@@ -351,12 +351,8 @@ impl Scheduler {
                 self.advance(i);
                 Ok(Accepted::Stored)
             }
-            // A dropped initial draw whose number a later generation reuses.
-            Some(_) => Ok(Accepted::Duplicate),
-            None if number < r.record.next_candidate || number < r.frontier => {
-                Ok(Accepted::Duplicate)
-            }
-            None => Err(Refusal::Unknown(key)),
+            // Every other known candidate is answered (above).
+            _ => Err(Refusal::Unknown(key)),
         }
     }
 
@@ -419,6 +415,7 @@ impl Scheduler {
         let number = key.number.0;
         match r.step.get(&number) {
             Some(p) if p.generation == key.generation => matches!(p.state, State::Resolved(_)),
+            // A dropped initial draw whose number a later generation reuses.
             Some(_) => true,
             None => number < r.record.next_candidate || number < r.frontier,
         }

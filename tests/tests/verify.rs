@@ -8,6 +8,21 @@ use strider_tests::{candidate_rows, export, run, run_ok, sqlite, temp_dir};
 
 const FIXTURE: &str = "tests/fixtures/service.toml";
 
+/// The fixture experiment run to its end into `db`.
+fn finished_run(db: &Path) {
+    run_ok(
+        "strider-coordinator",
+        &[
+            "run",
+            FIXTURE,
+            "--db",
+            db.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+    );
+}
+
 /// A copy of `db` with `sql` applied.
 fn corrupted(db: &Path, name: &str, sql: &str) -> PathBuf {
     let copy = db.with_file_name(format!("{name}.db"));
@@ -50,17 +65,7 @@ fn resume_refused(db: &Path, what: &str) {
 fn verify_and_resume_catch_edits_sqlite_cannot_see() {
     let dir = temp_dir("verify");
     let db = dir.join("whole.db");
-    run_ok(
-        "strider-coordinator",
-        &[
-            "run",
-            FIXTURE,
-            "--db",
-            db.to_str().unwrap(),
-            "--workers",
-            "2",
-        ],
-    );
+    finished_run(&db);
     let (code, out) = verify(&db, "30");
     assert_eq!(code, 0, "{out}");
     assert!(out.contains("agrees with itself"), "{out}");
@@ -187,17 +192,7 @@ fn verify_and_resume_catch_edits_sqlite_cannot_see() {
 fn text_that_is_not_utf8_is_refused_naming_its_row_never_a_panic() {
     let dir = temp_dir("verify-utf8");
     let db = dir.join("whole.db");
-    run_ok(
-        "strider-coordinator",
-        &[
-            "run",
-            FIXTURE,
-            "--db",
-            db.to_str().unwrap(),
-            "--workers",
-            "2",
-        ],
-    );
+    finished_run(&db);
     // The elite of the lowest occupied cell of run 0: read by the resume, `verify`,
     // `export` and `analyse`.
     let elite = sqlite(
@@ -267,17 +262,7 @@ fn text_that_is_not_utf8_is_refused_naming_its_row_never_a_panic() {
 fn read_commands_leave_a_backup_byte_for_byte_as_it_was() {
     let dir = temp_dir("verify-readonly");
     let db = dir.join("whole.db");
-    run_ok(
-        "strider-coordinator",
-        &[
-            "run",
-            FIXTURE,
-            "--db",
-            db.to_str().unwrap(),
-            "--workers",
-            "2",
-        ],
-    );
+    finished_run(&db);
     let backup = dir.join("backup.db");
     sqlite(&db, &format!("VACUUM INTO '{}'", backup.display()));
     let before = std::fs::read(&backup).unwrap();
@@ -310,17 +295,7 @@ fn read_commands_leave_a_backup_byte_for_byte_as_it_was() {
 fn random_byte_flips_are_caught_or_change_nothing() {
     let dir = temp_dir("verify-flips");
     let db = dir.join("whole.db");
-    run_ok(
-        "strider-coordinator",
-        &[
-            "run",
-            FIXTURE,
-            "--db",
-            db.to_str().unwrap(),
-            "--workers",
-            "2",
-        ],
-    );
+    finished_run(&db);
     let whole = std::fs::read(&db).unwrap();
     let (want_export, want_rows) = (export(&db), candidate_rows(&db));
     // A seeded generator (64-bit LCG, Knuth's MMIX constants): the same flips every run.

@@ -276,11 +276,7 @@ impl Db {
     pub async fn open_for_reading(path: &Path) -> Result<Self, DbError> {
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
-        let reader = if Path::new(&wal).exists() {
-            Self::open_reader(path).await?
-        } else {
-            Self::open_immutable(path).await?
-        };
+        let reader = Self::open_reader(path, !Path::new(&wal).exists()).await?;
         if reader.schema_current().await? {
             return Ok(reader);
         }
@@ -293,18 +289,21 @@ impl Db {
         })?;
         writer.pool.close().await;
         drop(writer);
-        Self::open_immutable(path).await
+        Self::open_reader(path, true).await
     }
 
-    /// A read-only connection pool on `path`, nothing set that writes.
-    async fn open_reader(path: &Path) -> Result<Self, DbError> {
+    /// A read-only connection pool on `path`, nothing set that writes; `immutable`:
+    /// SQLite reads only the main file and creates nothing beside it (a clean stop's
+    /// file, a backup, a read-only mount), else it reads through the log.
+    async fn open_reader(path: &Path, immutable: bool) -> Result<Self, DbError> {
         let open_error = |e| DbError::Open {
             path: path.display().to_string(),
             source: e,
         };
         let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
             .map_err(open_error)?
-            .read_only(true);
+            .read_only(true)
+            .immutable(immutable);
         let pool = SqlitePoolOptions::new()
             .max_connections(4)
             .connect_with(options)
@@ -325,25 +324,6 @@ impl Db {
                 .fetch_one(&self.pool)
                 .await?;
         Ok(applied >= sqlx::migrate!("./migrations").iter().count() as i64)
-    }
-
-    /// Opens a database as immutable: SQLite reads only the main file and creates nothing
-    /// beside it (a clean stop's file, a backup, a read-only mount).
-    async fn open_immutable(path: &Path) -> Result<Self, DbError> {
-        let open_error = |e| DbError::Open {
-            path: path.display().to_string(),
-            source: e,
-        };
-        let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
-            .map_err(open_error)?
-            .read_only(true)
-            .immutable(true);
-        let pool = SqlitePoolOptions::new()
-            .max_connections(4)
-            .connect_with(options)
-            .await
-            .map_err(open_error)?;
-        Ok(Self { pool, _lock: None })
     }
 
     /// The stored experiment, if any.
