@@ -124,12 +124,21 @@ impl DesignBrief {
         out
     }
 
-    /// The simulated check: average forward speed over the trial.
-    pub fn check_speed(&self, speed: f64) -> Option<Violation> {
-        (speed < self.min_speed).then_some(Violation {
+    /// The speed a trial asks for: `min_speed` raised by the fraction `margin`.
+    pub fn required_speed(&self, margin: f64) -> f64 {
+        self.min_speed * (1.0 + margin)
+    }
+
+    /// The simulated check: average forward speed over the trial, which must beat
+    /// `min_speed` by the fraction `margin` (the trial's safety factor for the physics
+    /// step's error; 0 checks the brief as written). The violation's limit is the
+    /// speed asked for, margin included.
+    pub fn check_speed(&self, speed: f64, margin: f64) -> Option<Violation> {
+        let limit = self.required_speed(margin);
+        (speed < limit).then_some(Violation {
             constraint: Constraint::Speed,
             value: speed,
-            limit: self.min_speed,
+            limit,
         })
     }
 }

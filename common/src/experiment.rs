@@ -71,12 +71,22 @@ pub struct TrialLimits {
     /// smaller of this and `max_tilt_degrees` applies): a robot past it is falling, not
     /// walking on, though it may not pass `max_tilt_degrees` before the window ends.
     pub upright_after_max_tilt_degrees: f64,
+    /// How long a robot fast enough to meet the brief (its speed at the trial's end at
+    /// least `min_speed` with the margin) must stay up after the trial, s: a gait that
+    /// keeps walking (docs/model.md section 6). The longer of this and
+    /// `upright_after_seconds` applies to it.
+    pub upright_after_feasible_seconds: f64,
     /// Largest distance a foot may slide on the ground over the trial (mean over the feet)
     /// per metre walked: past it the feet skate (docs/model.md section 6).
     pub max_foot_slip_ratio: f64,
     /// Largest share of the feet's forward travel made within the ground clearance
     /// (3 cm): past it the feet shuffle along the ground instead of stepping.
     pub max_low_forward_share: f64,
+    /// Fraction by which a design's average speed must beat the brief's `min_speed` in
+    /// the trial to count as feasible: a safety factor for the physics step's error, so
+    /// that a design in the library still meets the brief at any finer step
+    /// (docs/model.md section 6, "A verdict that holds at a finer step").
+    pub speed_margin: f64,
 }
 
 impl Default for TrialLimits {
@@ -87,8 +97,10 @@ impl Default for TrialLimits {
             only_feet_on_ground: true,
             upright_after_seconds: 1.0,
             upright_after_max_tilt_degrees: 20.0,
+            upright_after_feasible_seconds: 15.0,
             max_foot_slip_ratio: 0.5,
             max_low_forward_share: 0.4,
+            speed_margin: 0.05,
         }
     }
 }
@@ -354,6 +366,13 @@ impl Experiment {
             0.0,
             1.0,
         )?;
+        check_real(
+            "trial.upright_after_feasible_seconds",
+            self.trial.upright_after_feasible_seconds,
+            0.0,
+            600.0,
+        )?;
+        check_real("trial.speed_margin", self.trial.speed_margin, 0.0, 1.0)?;
         check_real(
             "search.feasible_parent_share",
             self.search.feasible_parent_share,

@@ -70,7 +70,15 @@ pub fn calibrate(
     let mut trials = 0;
     for _ in 0..64 {
         let ends = map_batch(&round, threads, |_| {
-            run_trial_from(&plan, &pose, &controller, settings, &whole, &mut ())
+            run_trial_from(
+                &plan,
+                &pose,
+                &controller,
+                settings,
+                &whole,
+                f64::INFINITY,
+                &mut (),
+            )
         });
         trials += ends.len();
         debug_assert!(ends.iter().all(|e| matches!(e, TrialEnd::Completed(_))));

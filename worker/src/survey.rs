@@ -404,7 +404,11 @@ impl Record {
         r.gait_contact_at = sweep.contact.as_ref().map(|(t, _)| *t);
         r.stance_load = Some(sweep.stance_load);
         r.support_margin = Some(sweep.support_margin);
-        r.cause = cause(verdict, &sweep, ctx.brief.min_speed * seconds);
+        r.cause = cause(
+            verdict,
+            &sweep,
+            ctx.brief.required_speed(ctx.limits.speed_margin) * seconds,
+        );
         r
     }
 }
@@ -553,7 +557,8 @@ impl Survey {
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
             record
         });
-        let brief_distance = ctx.brief.min_speed * ctx.settings.trial_seconds;
+        let brief_distance =
+            ctx.brief.required_speed(ctx.limits.speed_margin) * ctx.settings.trial_seconds;
         Self::of_records(scheme, seed, brief_distance, records)
     }
 

@@ -46,7 +46,7 @@ pub fn instant_outcome(
                 violations: vec![Violation {
                     constraint: Constraint::Speed,
                     value: 0.5 * unit,
-                    limit: ctx.brief.min_speed,
+                    limit: ctx.brief.required_speed(ctx.limits.speed_margin),
                 }],
                 stats: Some(TrialStats {
                     distance: 2.5 * unit,

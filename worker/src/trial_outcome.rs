@@ -26,6 +26,7 @@ pub fn evaluate_controller(
         controller,
         &ctx.settings,
         &ctx.limits,
+        ctx.brief.required_speed(ctx.limits.speed_margin),
         observer,
     ) {
         TrialEnd::Completed(stats) => stats,
@@ -46,7 +47,7 @@ pub fn evaluate_controller(
             controller: *controller,
         };
     }
-    if let Some(v) = ctx.brief.check_speed(stats.speed) {
+    if let Some(v) = ctx.brief.check_speed(stats.speed, ctx.limits.speed_margin) {
         return Outcome::Rejected {
             violations: vec![v],
             stats: Some(stats),

@@ -118,6 +118,7 @@ fn lifting_the_robot_costs_at_least_m_g_h() {
         &start,
         &ctx().settings,
         &ctx().limits,
+        f64::INFINITY,
         |_, t| [0.5, lift(t), lift(t)],
         &mut rec,
     );
@@ -296,6 +297,7 @@ fn scripted(
         &start,
         &ctx().settings,
         &limits,
+        f64::INFINITY,
         |leg, t| q(&plan.legs[leg], t),
         &mut (),
     )
@@ -374,6 +376,7 @@ fn a_robot_tipping_after_the_trial_has_fallen_under_the_stricter_limit() {
             &start,
             &ctx().settings,
             &limits,
+            f64::INFINITY,
             |leg, t| tip(&plan.legs[leg], t),
             observer,
         )
@@ -643,4 +646,66 @@ fn feet_that_skate_past_the_limits_are_invalid_with_the_skating_reason() {
         ),
         "{slid:?}"
     );
+}
+
+#[test]
+fn a_design_must_beat_the_brief_speed_by_the_margin() {
+    // MAX's own speed under STATIC; a brief asking a little less than it.
+    let base = evaluate(&ctx(), &max(), Scheme::Static, CandidateSeed::new(0, 0));
+    let speed = base.stats().expect("MAX completes its trial").speed;
+    let mut c = ctx();
+    c.brief.min_speed = speed / 1.02;
+    // Inside a 5 % margin: refused for speed, the limit being the speed asked for.
+    c.limits.speed_margin = 0.05;
+    match evaluate(&c, &max(), Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Rejected { violations, .. } => {
+            assert_eq!(violations.len(), 1);
+            assert_eq!(violations[0].value, speed);
+            assert_eq!(violations[0].limit, c.brief.min_speed * 1.05);
+        }
+        other => panic!("expected a speed rejection, got {other:?}"),
+    }
+    // Without the margin the same walk meets the same brief.
+    c.limits.speed_margin = 0.0;
+    let o = evaluate(&c, &max(), Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(matches!(o, Outcome::Valid { .. }), "{o:?}");
+}
+
+#[test]
+fn a_robot_fast_enough_for_the_brief_must_stay_up_the_longer_window() {
+    // Upright through the trial and the second after it; from 8 s the right legs fold
+    // and the body rolls over.
+    let tip = |leg: &strider_common::body_plan::LegPlan, t: f64| {
+        let lean = 1.0 * (t - 8.0).clamp(0.0, 1.0);
+        if leg.side == strider_common::body_plan::Side::Right {
+            [0.5, 0.5 - 1.5 * lean, 0.5 - 1.5 * lean]
+        } else {
+            [0.5, 0.5 + 0.8 * lean, 0.5]
+        }
+    };
+    let run = |feasible_speed: f64| {
+        let g = max();
+        let plan = BodyPlan::new(&g.morphology, 10.0);
+        let start = StartPose::with_angles(&plan, vec![[0.5; 3]; plan.legs.len()]);
+        run_trial_with(
+            &plan,
+            &start,
+            &ctx().settings,
+            &TrialLimits::default(),
+            feasible_speed,
+            |leg, t| tip(&plan.legs[leg], t),
+            &mut (),
+        )
+    };
+    // Too slow for the brief: the 1-s window, which ends before the fall.
+    let slow = run(f64::INFINITY);
+    assert!(matches!(slow, TrialEnd::Completed(_)), "{slow:?}");
+    // Fast enough (any speed is, here): the 15-s window sees the fall, and says when.
+    match run(f64::NEG_INFINITY) {
+        TrialEnd::Stopped {
+            reason: InvalidReason::Fell { .. },
+            at_time,
+        } => assert!(at_time > 8.0 && at_time <= 20.0 + 1e-9, "{at_time}"),
+        other => panic!("expected a fall in the longer window, got {other:?}"),
+    }
 }

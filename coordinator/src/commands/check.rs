@@ -43,13 +43,14 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         e.offspring_per_run()
     );
     outln!(
-        "trial {} s at {} Hz control, physics step {:.5} s; brief: mass <= {} kg, height >= {} m, speed >= {} m/s, payload {} kg",
+        "trial {} s at {} Hz control, physics step {:.5} s; brief: mass <= {} kg, height >= {} m, speed >= {} m/s (the trial asks {:.0} % more), payload {} kg",
         e.run.trial_seconds,
         e.run.control_hz,
         e.run.physics_dt(),
         e.brief.max_mass,
         e.brief.min_height,
         e.brief.min_speed,
+        100.0 * e.trial.speed_margin,
         e.brief.payload
     );
     outln!(
@@ -72,10 +73,15 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
             ""
         }
     );
-    if e.trial.upright_after_seconds > 0.0 {
+    let feasible_window = e
+        .trial
+        .upright_after_feasible_seconds
+        .max(e.trial.upright_after_seconds);
+    if feasible_window > 0.0 {
         outln!(
-            "after the trial the robot must stay up {} s more, its body within {} degrees of level",
+            "after the trial the robot must stay up {} s more ({} s when it is fast enough for the brief), its body within {} degrees of level",
             e.trial.upright_after_seconds,
+            feasible_window,
             e.trial
                 .max_tilt_degrees
                 .min(e.trial.upright_after_max_tilt_degrees)

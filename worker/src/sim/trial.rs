@@ -90,16 +90,27 @@ pub fn run_trial<O: Observer>(
     observer: &mut O,
 ) -> TrialEnd {
     let start = StartPose::new(plan, controller);
-    run_trial_from(plan, &start, controller, settings, limits, observer)
+    run_trial_from(
+        plan,
+        &start,
+        controller,
+        settings,
+        limits,
+        f64::INFINITY,
+        observer,
+    )
 }
 
-/// [`run_trial`] from a start pose already computed (`StartPose::new(plan, controller)`).
+/// [`run_trial`] from a start pose already computed (`StartPose::new(plan, controller)`),
+/// a design whose speed at the trial's end is at least `feasible_speed` (the brief's,
+/// margin included) being held to the longer stay-up window.
 pub fn run_trial_from<O: Observer>(
     plan: &BodyPlan,
     start: &StartPose,
     controller: &Controller,
     settings: &RunSettings,
     limits: &TrialLimits,
+    feasible_speed: f64,
     observer: &mut O,
 ) -> TrialEnd {
     run_trial_with(
@@ -107,6 +118,7 @@ pub fn run_trial_from<O: Observer>(
         start,
         settings,
         limits,
+        feasible_speed,
         |leg, t| leg_targets(controller, &plan.legs[leg], t),
         observer,
     )
@@ -114,11 +126,15 @@ pub fn run_trial_from<O: Observer>(
 
 /// Runs a trial from `start` with any joint targets: `targets(leg index, t)` gives a leg's
 /// three target angles at control time `t` (the gait in a real trial; tests script others).
+/// A robot whose average speed at the trial's end is at least `feasible_speed` must stay up
+/// `upright_after_feasible_seconds` after it, the others `upright_after_seconds`
+/// (`f64::INFINITY`: the shorter window for all).
 pub fn run_trial_with<O: Observer>(
     plan: &BodyPlan,
     start: &StartPose,
     settings: &RunSettings,
     limits: &TrialLimits,
+    feasible_speed: f64,
     targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
     observer: &mut O,
 ) -> TrialEnd {
@@ -130,7 +146,17 @@ pub fn run_trial_with<O: Observer>(
     // then was falling at the end, and would otherwise be credited with the distance it
     // fell forward (seen in the best designs of a search). Distance and energy stop at
     // `steps`.
-    let after = (limits.upright_after_seconds * settings.control_hz).round() as usize * substeps;
+    // A design fast enough to meet the brief must keep walking longer: a 1-s window let
+    // through designs that fell within 15 s, half of a search's feasible elites
+    // (docs/model.md section 6, "Gaits that keep walking"). The others only need to be
+    // walking at the end, and the longer window would cost every slow trial 3 times over.
+    let window = |seconds: f64| (seconds * settings.control_hz).round() as usize * substeps;
+    let mut after = window(limits.upright_after_seconds);
+    let long_after = window(
+        limits
+            .upright_after_feasible_seconds
+            .max(limits.upright_after_seconds),
+    );
     let mut at_end: Option<(Vector3<f64>, f64)> = None;
     let total_mass = plan.total_mass();
     let com_start = centre_of_mass(&rw);
@@ -145,9 +171,15 @@ pub fn run_trial_with<O: Observer>(
     let mut feet = FootTracker::new(plan, &rw);
     let mut down = vec![false; plan.legs.len()];
 
-    for step in 0..steps + after {
+    let mut step = 0;
+    while step < steps + after {
         if step == steps {
-            at_end = Some((centre_of_mass(&rw), energy));
+            let com = centre_of_mass(&rw);
+            at_end = Some((com, energy));
+            let speed = (com.x - com_start.x) / (steps as f64 * dt);
+            if speed >= feasible_speed {
+                after = long_after;
+            }
         }
         let t = step as f64 * dt;
         if step % substeps == 0 {
@@ -227,6 +259,7 @@ pub fn run_trial_with<O: Observer>(
         if let Some(fall) = falls.check(&rw, step >= steps) {
             return stopped(InvalidReason::Fell { fall }, time);
         }
+        step += 1;
     }
 
     let (com_end, energy) = at_end.unwrap_or_else(|| (centre_of_mass(&rw), energy));
