@@ -57,8 +57,20 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
     );
     verdict.problems.extend(crate::db::damaged_rows(&damaged));
     // Each run's per-generation figures, which nothing downstream recomputes (curves,
-    // the generations export): against the replay's.
+    // the generations export): against their checksums, then against the replay's (a
+    // run with a damaged row is named by the first and not read by the second).
+    let damaged_generations = db.generation_checksum_mismatches().await?;
+    outln!(
+        "checked every generations row against its checksum: {} damaged",
+        damaged_generations.len()
+    );
+    verdict
+        .problems
+        .extend(crate::db::damaged_generations(&damaged_generations));
     for (i, run) in runs.iter().enumerate() {
+        if damaged_generations.iter().any(|(r, _)| *r == run.id) {
+            continue;
+        }
         let stored = db.generations(run.id).await?;
         let replayed = verdict.generations.get(i).map_or(&[][..], |g| &g[..]);
         verdict.problems.extend(crate::verify::generation_problems(

@@ -1,7 +1,8 @@
-//! A checksum per candidate row, written with the row and checked against it: damage
-//! SQLite cannot see (a flipped byte inside a genome's text, an edited fitness) is caught
-//! on resume for the rows the search reads again (the libraries' holders) and by
-//! `verify` for every row.
+//! A checksum per candidate row and per generations row, written with the row and
+//! checked against it: damage SQLite cannot see (a flipped byte inside a genome's text,
+//! an edited fitness, a changed mean fitness) is caught on resume for the rows the search
+//! reads again (the libraries' holders, every generations row) and by `verify` for every
+//! row.
 //!
 //! FNV-1a (64 bits) over the row's columns in a fixed order, each written as text (REALs
 //! by their bits) and ended by a separator byte: portable, with no dependency, and a
@@ -110,6 +111,104 @@ impl<'a> CandidateColumns<'a> {
     }
 }
 
+/// The columns of a `generations` row, as stored: the one type both its writer and its
+/// readers use, so the checksum covers what is written and read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GenerationColumns {
+    /// `run_id`.
+    pub run: i64,
+    pub generation: i64,
+    pub evaluations: i64,
+    pub coverage: f64,
+    pub elites: i64,
+    pub max_fitness: f64,
+    pub mean_fitness: f64,
+    pub min_fitness: f64,
+    pub qd_score: f64,
+    pub new: i64,
+    pub improved: i64,
+    pub discarded: i64,
+    pub rejected: i64,
+    pub invalid: i64,
+    pub infeasible_elites: i64,
+    pub infeasible_only: i64,
+    pub infeasible_new: i64,
+    pub infeasible_improved: i64,
+}
+
+/// The columns of a `generations` row, checksum last, in the table's order.
+pub const GENERATION_COLUMNS: &str = "run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved, checksum";
+
+impl GenerationColumns {
+    /// The columns of `row` (selected as [`GENERATION_COLUMNS`]) and its stored checksum
+    /// (`None` for a row written before generations had checksums); a column that cannot
+    /// be decoded is an error naming the row and column.
+    pub fn from_row(row: &SqliteRow) -> Result<(Self, Option<i64>), DbError> {
+        let t = "generations";
+        let run: i64 = column(row, t, "a row", "run_id")?;
+        let generation: i64 = column(row, t, format!("run {run}"), "generation")?;
+        let key = format!("run {run} generation {generation}");
+        let c = |name: &str| column::<i64>(row, t, &key, name);
+        let r = |name: &str| column::<f64>(row, t, &key, name);
+        Ok((
+            GenerationColumns {
+                run,
+                generation,
+                evaluations: c("evaluations")?,
+                coverage: r("coverage")?,
+                elites: c("elites")?,
+                max_fitness: r("max_fitness")?,
+                mean_fitness: r("mean_fitness")?,
+                min_fitness: r("min_fitness")?,
+                qd_score: r("qd_score")?,
+                new: c("new")?,
+                improved: c("improved")?,
+                discarded: c("discarded")?,
+                rejected: c("rejected")?,
+                invalid: c("invalid")?,
+                infeasible_elites: c("infeasible_elites")?,
+                infeasible_only: c("infeasible_only")?,
+                infeasible_new: c("infeasible_new")?,
+                infeasible_improved: c("infeasible_improved")?,
+            },
+            column(row, t, &key, "checksum")?,
+        ))
+    }
+
+    /// The row's checksum, as [`CandidateColumns::checksum`]: every column in the table's
+    /// order, integers as decimal text and REALs by their bits.
+    pub fn checksum(&self) -> i64 {
+        let mut h = Fnv1a::default();
+        for v in [self.run, self.generation, self.evaluations] {
+            h.field(v.to_string().as_bytes());
+        }
+        h.field(real(Some(self.coverage)).as_bytes());
+        h.field(self.elites.to_string().as_bytes());
+        for v in [
+            self.max_fitness,
+            self.mean_fitness,
+            self.min_fitness,
+            self.qd_score,
+        ] {
+            h.field(real(Some(v)).as_bytes());
+        }
+        for v in [
+            self.new,
+            self.improved,
+            self.discarded,
+            self.rejected,
+            self.invalid,
+            self.infeasible_elites,
+            self.infeasible_only,
+            self.infeasible_new,
+            self.infeasible_improved,
+        ] {
+            h.field(v.to_string().as_bytes());
+        }
+        h.0 as i64
+    }
+}
+
 /// A REAL by its bits (`-` for NULL), so that no rounding of a printed figure hides a change.
 fn real(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{:016x}", v.to_bits()))
@@ -156,6 +255,61 @@ mod tests {
             shortfall: None,
             standing: None,
             infeasible_placement: None,
+        }
+    }
+
+    fn generation() -> GenerationColumns {
+        GenerationColumns {
+            run: 0,
+            generation: 3,
+            evaluations: 60,
+            coverage: 0.01,
+            elites: 12,
+            max_fitness: 2.0,
+            mean_fitness: 1.5,
+            min_fitness: 1.0,
+            qd_score: 18.0,
+            new: 1,
+            improved: 2,
+            discarded: 3,
+            rejected: 4,
+            invalid: 5,
+            infeasible_elites: 6,
+            infeasible_only: 7,
+            infeasible_new: 8,
+            infeasible_improved: 9,
+        }
+    }
+
+    #[test]
+    fn any_change_of_a_generations_column_changes_its_checksum() {
+        let base = generation().checksum();
+        assert_eq!(base, generation().checksum());
+        // Each column in turn, by one unit or one ulp.
+        let changes: [fn(&mut GenerationColumns); 18] = [
+            |g| g.run += 1,
+            |g| g.generation += 1,
+            |g| g.evaluations += 1,
+            |g| g.coverage = f64::from_bits(g.coverage.to_bits() + 1),
+            |g| g.elites += 1,
+            |g| g.max_fitness = f64::from_bits(g.max_fitness.to_bits() + 1),
+            |g| g.mean_fitness = f64::from_bits(g.mean_fitness.to_bits() + 1),
+            |g| g.min_fitness = f64::from_bits(g.min_fitness.to_bits() + 1),
+            |g| g.qd_score = f64::from_bits(g.qd_score.to_bits() + 1),
+            |g| g.new += 1,
+            |g| g.improved += 1,
+            |g| g.discarded += 1,
+            |g| g.rejected += 1,
+            |g| g.invalid += 1,
+            |g| g.infeasible_elites += 1,
+            |g| g.infeasible_only += 1,
+            |g| g.infeasible_new += 1,
+            |g| g.infeasible_improved += 1,
+        ];
+        for (i, change) in changes.iter().enumerate() {
+            let mut g = generation();
+            change(&mut g);
+            assert_ne!(g.checksum(), base, "change of column {i} went unseen");
         }
     }
 

@@ -4,7 +4,7 @@
 //! SQLite commits this one (the two used to run one after the other, and the writer was
 //! the service's bottleneck).
 
-use super::checksum::CandidateColumns;
+use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::column;
 use super::{standing_figure, Db, DbError};
 use crate::changes::{RunPosition, StepCommit, Write};
@@ -464,27 +464,50 @@ async fn write_step(
         }
         let evaluations =
             stats.new + stats.improved + stats.discarded + stats.rejected + stats.invalid;
-        sqlx::query("INSERT INTO generations (run_id, generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
-            .bind(run)
-            .bind(i64::from(generation))
-            .bind(evaluations as i64)
-            .bind(stats.coverage)
-            .bind(stats.elites as i64)
-            .bind(stats.max_fitness)
-            .bind(stats.mean_fitness)
-            .bind(stats.min_fitness)
-            .bind(stats.qd_score)
-            .bind(stats.new as i64)
-            .bind(stats.improved as i64)
-            .bind(stats.discarded as i64)
-            .bind(stats.rejected as i64)
-            .bind(stats.invalid as i64)
-            .bind(stats.infeasible_elites as i64)
-            .bind(stats.infeasible_only as i64)
-            .bind(stats.infeasible_new as i64)
-            .bind(stats.infeasible_improved as i64)
-            .execute(&mut **tx)
-            .await?;
+        let row = GenerationColumns {
+            run,
+            generation: i64::from(generation),
+            evaluations: evaluations as i64,
+            coverage: stats.coverage,
+            elites: stats.elites as i64,
+            max_fitness: stats.max_fitness,
+            mean_fitness: stats.mean_fitness,
+            min_fitness: stats.min_fitness,
+            qd_score: stats.qd_score,
+            new: stats.new as i64,
+            improved: stats.improved as i64,
+            discarded: stats.discarded as i64,
+            rejected: stats.rejected as i64,
+            invalid: stats.invalid as i64,
+            infeasible_elites: stats.infeasible_elites as i64,
+            infeasible_only: stats.infeasible_only as i64,
+            infeasible_new: stats.infeasible_new as i64,
+            infeasible_improved: stats.infeasible_improved as i64,
+        };
+        sqlx::query(&format!(
+            "INSERT INTO generations ({GENERATION_COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+        ))
+        .bind(row.run)
+        .bind(row.generation)
+        .bind(row.evaluations)
+        .bind(row.coverage)
+        .bind(row.elites)
+        .bind(row.max_fitness)
+        .bind(row.mean_fitness)
+        .bind(row.min_fitness)
+        .bind(row.qd_score)
+        .bind(row.new)
+        .bind(row.improved)
+        .bind(row.discarded)
+        .bind(row.rejected)
+        .bind(row.invalid)
+        .bind(row.infeasible_elites)
+        .bind(row.infeasible_only)
+        .bind(row.infeasible_new)
+        .bind(row.infeasible_improved)
+        .bind(row.checksum())
+        .execute(&mut **tx)
+        .await?;
     }
     let p = step.position;
     // What `StepCommit::clears` says.

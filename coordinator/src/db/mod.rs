@@ -10,6 +10,7 @@ pub(crate) mod rows;
 pub use group::PreparedGroup;
 
 use crate::library::{GenerationStats, InfeasibleLibrary, Library};
+use checksum::{GenerationColumns, GENERATION_COLUMNS};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
@@ -52,8 +53,7 @@ pub use strider_common::build_id;
 
 use crate::changes::{RunRecord, StoredPending};
 use rows::{
-    EliteRow, EliteWithOutcomeRow, GenerationRow, InfeasibleRow, InfeasibleWithOutcomeRow,
-    PendingRow, RunRow,
+    EliteRow, EliteWithOutcomeRow, InfeasibleRow, InfeasibleWithOutcomeRow, PendingRow, RunRow,
 };
 use std::collections::HashMap;
 
@@ -499,6 +499,9 @@ impl Db {
             ));
         }
         out.extend(damaged_rows(&self.checksum_mismatches(true).await?));
+        out.extend(damaged_generations(
+            &self.generation_checksum_mismatches().await?,
+        ));
         Ok(out)
     }
 
@@ -675,16 +678,55 @@ impl Db {
         rows.into_iter().map(StoredInfeasible::try_from).collect()
     }
 
-    /// Per-generation statistics of a run, in order.
+    /// Per-generation statistics of a run, in order. A row that does not match its
+    /// checksum, or cannot be decoded, is an error naming it.
     pub async fn generations(
         &self,
         run_id: i64,
     ) -> Result<Vec<(u32, u64, GenerationStats)>, DbError> {
-        let rows: Vec<GenerationRow> = sqlx::query_as("SELECT generation, evaluations, coverage, elites, max_fitness, mean_fitness, min_fitness, qd_score, new, improved, discarded, rejected, invalid, infeasible_elites, infeasible_only, infeasible_new, infeasible_improved FROM generations WHERE run_id = ? ORDER BY generation")
-            .bind(run_id)
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows.into_iter().map(Into::into).collect())
+        let rows = sqlx::query(&format!(
+            "SELECT {GENERATION_COLUMNS} FROM generations WHERE run_id = ? ORDER BY generation"
+        ))
+        .bind(run_id)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let (columns, stored) = GenerationColumns::from_row(r)?;
+                if stored.is_some_and(|s| s != columns.checksum()) {
+                    return Err(DbError::Corrupt(format!(
+                        "table generations, run {} generation {}: the row does not match its checksum, so it was changed after it was written",
+                        columns.run, columns.generation
+                    )));
+                }
+                columns.try_into()
+            })
+            .collect()
+    }
+
+    /// The generations rows (run, generation) that do not match their checksum or cannot
+    /// be decoded, in order. Rows written before checksums are skipped.
+    pub async fn generation_checksum_mismatches(&self) -> Result<Vec<(i64, i64)>, DbError> {
+        let rows = sqlx::query(&format!(
+            "SELECT {GENERATION_COLUMNS} FROM generations WHERE checksum IS NOT NULL"
+        ))
+        .fetch_all(&self.pool)
+        .await?;
+        let mut bad = Vec::new();
+        for r in &rows {
+            match GenerationColumns::from_row(r) {
+                Ok((columns, stored)) if stored == Some(columns.checksum()) => {}
+                Ok((columns, _)) => bad.push((columns.run, columns.generation)),
+                Err(e) => {
+                    let t = "generations";
+                    let run: i64 = rows::column(r, t, "a row", "run_id")?;
+                    let generation = rows::column(r, t, format!("run {run}"), "generation");
+                    bad.push((run, generation.map_err(|_| e)?));
+                }
+            }
+        }
+        bad.sort_unstable();
+        Ok(bad)
     }
 
     /// Copies committed pages from the write-ahead log into the database file without
@@ -793,6 +835,24 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
 
 fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".into(), |v| v.to_string())
+}
+
+/// Problems naming damaged generations rows (the first five, and how many in all).
+pub fn damaged_generations(bad: &[(i64, i64)]) -> Option<String> {
+    if bad.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = bad
+        .iter()
+        .take(5)
+        .map(|(run, g)| format!("run {run} generation {g}"))
+        .collect();
+    Some(format!(
+        "{} generations rows do not match their checksums, so their figures were changed after they were written ({}{})",
+        bad.len(),
+        named.join(", "),
+        if bad.len() > 5 { ", ..." } else { "" }
+    ))
 }
 
 /// Problems naming damaged candidate rows (the first five, and how many in all).

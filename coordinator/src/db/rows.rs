@@ -2,6 +2,7 @@
 //! without a silent mix-up), and their conversion to the model's types, which refuses text
 //! that names nothing.
 
+use super::checksum::GenerationColumns;
 use super::{standing_of, DbError, StoredElite, StoredInfeasible};
 use crate::changes::StoredPending;
 use crate::library::{Elite, GenerationStats, InfeasibleElite};
@@ -155,52 +156,40 @@ impl TryFrom<PendingRow> for StoredPending {
     }
 }
 
-/// A `generations` row.
-#[derive(sqlx::FromRow)]
-pub(super) struct GenerationRow {
-    pub generation: i64,
-    pub evaluations: i64,
-    pub coverage: f64,
-    pub elites: i64,
-    pub max_fitness: f64,
-    pub mean_fitness: f64,
-    pub min_fitness: f64,
-    pub qd_score: f64,
-    pub new: i64,
-    pub improved: i64,
-    pub discarded: i64,
-    pub rejected: i64,
-    pub invalid: i64,
-    pub infeasible_elites: i64,
-    pub infeasible_only: i64,
-    pub infeasible_new: i64,
-    pub infeasible_improved: i64,
-}
+impl TryFrom<GenerationColumns> for (u32, u64, GenerationStats) {
+    type Error = DbError;
 
-impl From<GenerationRow> for (u32, u64, GenerationStats) {
-    fn from(r: GenerationRow) -> Self {
-        let n = |v: i64| v as usize;
-        (
-            r.generation as u32,
-            r.evaluations as u64,
+    /// A generations row as the run's statistics; a count out of its type's range (a
+    /// damaged row written before checksums) is an error naming the row and column.
+    fn try_from(r: GenerationColumns) -> Result<Self, DbError> {
+        let key = format!("run {} generation {}", r.run, r.generation);
+        let out_of_range = |name: &str, v: i64| {
+            DbError::Corrupt(format!(
+                "table generations, {key}, column {name}: {v} is out of range"
+            ))
+        };
+        let n = |name: &str, v: i64| usize::try_from(v).map_err(|_| out_of_range(name, v));
+        Ok((
+            u32::try_from(r.generation).map_err(|_| out_of_range("generation", r.generation))?,
+            u64::try_from(r.evaluations).map_err(|_| out_of_range("evaluations", r.evaluations))?,
             GenerationStats {
                 coverage: r.coverage,
-                elites: n(r.elites),
+                elites: n("elites", r.elites)?,
                 max_fitness: r.max_fitness,
                 mean_fitness: r.mean_fitness,
                 min_fitness: r.min_fitness,
                 qd_score: r.qd_score,
-                new: n(r.new),
-                improved: n(r.improved),
-                discarded: n(r.discarded),
-                rejected: n(r.rejected),
-                invalid: n(r.invalid),
-                infeasible_elites: n(r.infeasible_elites),
-                infeasible_only: n(r.infeasible_only),
-                infeasible_new: n(r.infeasible_new),
-                infeasible_improved: n(r.infeasible_improved),
+                new: n("new", r.new)?,
+                improved: n("improved", r.improved)?,
+                discarded: n("discarded", r.discarded)?,
+                rejected: n("rejected", r.rejected)?,
+                invalid: n("invalid", r.invalid)?,
+                infeasible_elites: n("infeasible_elites", r.infeasible_elites)?,
+                infeasible_only: n("infeasible_only", r.infeasible_only)?,
+                infeasible_new: n("infeasible_new", r.infeasible_new)?,
+                infeasible_improved: n("infeasible_improved", r.infeasible_improved)?,
             },
-        )
+        ))
     }
 }
 
