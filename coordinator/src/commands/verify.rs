@@ -78,8 +78,17 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         ));
     }
     outln!("checked every run's generations table against the replay");
-    // The step in flight (what a resume reads first): every row decodes, or the error
-    // names it.
+    // The cheap checks a resume makes (each library cell against its candidate row, the
+    // runs against the experiment): damage the replay does not read, such as an
+    // infeasible cell's copy of its holder's standing.
+    let cheap = db.inconsistencies(&experiment).await?;
+    outln!("made the checks a resume makes: {} problems", cheap.len());
+    verdict.problems.extend(cheap);
+    // The cheap checks repeat the checksum findings above: each problem once.
+    let mut seen = std::collections::HashSet::new();
+    verdict.problems.retain(|p| seen.insert(p.clone()));
+    // The step in flight (what a resume reads first): every row decodes and matches its
+    // checksum, or the error names it.
     let pending = db.pending().await?;
     outln!("read the {} rows of the current steps", pending.len());
     // SQLite's own structure: pages, indexes, constraints (a flipped byte in a table's

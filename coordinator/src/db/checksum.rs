@@ -209,6 +209,35 @@ impl GenerationColumns {
     }
 }
 
+/// The checksum of a `pending` row: its columns in the table's order, as
+/// [`CandidateColumns::checksum`] writes them (NULL as `-`).
+#[allow(clippy::too_many_arguments)]
+pub fn pending_checksum(
+    run: i64,
+    number: i64,
+    generation: i64,
+    status: &str,
+    attempts: i64,
+    worker: Option<i64>,
+    outcome: Option<&str>,
+    seconds: Option<f64>,
+) -> i64 {
+    let mut h = Fnv1a::default();
+    for v in [run, number, generation] {
+        h.field(v.to_string().as_bytes());
+    }
+    h.field(status.as_bytes());
+    h.field(attempts.to_string().as_bytes());
+    h.field(
+        worker
+            .map_or_else(|| "-".to_string(), |w| w.to_string())
+            .as_bytes(),
+    );
+    h.field(outcome.unwrap_or("-").as_bytes());
+    h.field(real(seconds).as_bytes());
+    h.0 as i64
+}
+
 /// A REAL by its bits (`-` for NULL), so that no rounding of a printed figure hides a change.
 fn real(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{:016x}", v.to_bits()))
@@ -310,6 +339,28 @@ mod tests {
             let mut g = generation();
             change(&mut g);
             assert_ne!(g.checksum(), base, "change of column {i} went unseen");
+        }
+    }
+
+    #[test]
+    fn any_change_of_a_pending_column_changes_its_checksum() {
+        let base = pending_checksum(0, 5, 1, "done", 0, Some(3), Some("{}"), Some(0.5));
+        assert_eq!(
+            base,
+            pending_checksum(0, 5, 1, "done", 0, Some(3), Some("{}"), Some(0.5))
+        );
+        for other in [
+            pending_checksum(1, 5, 1, "done", 0, Some(3), Some("{}"), Some(0.5)),
+            pending_checksum(0, 6, 1, "done", 0, Some(3), Some("{}"), Some(0.5)),
+            pending_checksum(0, 5, 2, "done", 0, Some(3), Some("{}"), Some(0.5)),
+            pending_checksum(0, 5, 1, "failed", 0, Some(3), Some("{}"), Some(0.5)),
+            pending_checksum(0, 5, 1, "done", 1, Some(3), Some("{}"), Some(0.5)),
+            pending_checksum(0, 5, 1, "done", 0, None, Some("{}"), Some(0.5)),
+            pending_checksum(0, 5, 1, "done", 0, Some(3), Some("{ }"), Some(0.5)),
+            pending_checksum(0, 5, 1, "done", 0, Some(3), None, Some(0.5)),
+            pending_checksum(0, 5, 1, "done", 0, Some(3), Some("{}"), Some(0.25)),
+        ] {
+            assert_ne!(other, base);
         }
     }
 

@@ -4,7 +4,7 @@
 //! SQLite commits this one (the two used to run one after the other, and the writer was
 //! the service's bottleneck).
 
-use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
+use super::checksum::{pending_checksum, CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::column;
 use super::{standing_figure, Db, DbError};
 use crate::changes::{RunPosition, StepCommit, Write};
@@ -309,7 +309,7 @@ async fn write_pending_rows(
     rows: &[PendingRow],
 ) -> Result<(), DbError> {
     let mut q = sqlx::QueryBuilder::new(
-        "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds) ",
+        "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds, checksum) ",
     );
     q.push_values(rows, |mut b, r| {
         b.push_bind(r.run)
@@ -319,12 +319,22 @@ async fn write_pending_rows(
             .push_bind(r.attempts)
             .push_bind(r.worker)
             .push_bind(r.outcome.as_deref())
-            .push_bind(r.seconds);
+            .push_bind(r.seconds)
+            .push_bind(pending_checksum(
+                r.run,
+                r.number,
+                r.generation,
+                r.status,
+                r.attempts,
+                r.worker,
+                r.outcome.as_deref(),
+                r.seconds,
+            ));
     });
     q.push(
         " ON CONFLICT (run_id, number) DO UPDATE SET generation = excluded.generation, \
          status = excluded.status, attempts = excluded.attempts, worker = excluded.worker, \
-         outcome = excluded.outcome, seconds = excluded.seconds",
+         outcome = excluded.outcome, seconds = excluded.seconds, checksum = excluded.checksum",
     );
     q.build().execute(&mut **tx).await?;
     Ok(())

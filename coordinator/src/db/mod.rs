@@ -333,8 +333,9 @@ impl Db {
             .await?;
         row.map(|r| {
             let text: String = rows::column(&r, "experiment", "row 1", "definition")?;
-            let e = Experiment::from_toml(&text)
-                .map_err(|e| DbError::Corrupt(format!("stored experiment: {e}")))?;
+            let e = Experiment::from_toml(&text).map_err(|e| {
+                DbError::Corrupt(format!("table experiment, row 1, column definition: {e}"))
+            })?;
             Ok((e, rows::column(&r, "experiment", "row 1", "build")?))
         })
         .transpose()
@@ -365,9 +366,10 @@ impl Db {
     /// Every run with its library, rebuilt from the elites table.
     pub async fn runs(&self) -> Result<Vec<RunRecord>, DbError> {
         // Three queries whatever the number of runs: runs, elites, infeasible elites.
-        let runs: Vec<RunRow> = sqlx::query_as("SELECT id, scheme, repeat, seed, generation, initial_passed, next_candidate, finished FROM runs ORDER BY id")
+        let found = sqlx::query("SELECT id, scheme, repeat, seed, generation, initial_passed, next_candidate, finished FROM runs ORDER BY id")
             .fetch_all(&self.pool)
             .await?;
+        let runs: Vec<RunRow> = rows::decode_all(&found, "runs", &["id"])?;
         let mut out = Vec::with_capacity(runs.len());
         let mut index = HashMap::with_capacity(runs.len());
         for r in runs {
@@ -385,22 +387,27 @@ impl Db {
         }
         let run_of = |id: i64| {
             index.get(&id).copied().ok_or_else(|| {
-                DbError::Corrupt(format!("an elite of run {id}, which does not exist"))
+                DbError::Corrupt(format!(
+                    "table cells or infeasible_cells: an elite of run {id}, which table runs does not hold"
+                ))
             })
         };
-        let elites: Vec<EliteRow> = sqlx::query_as(
+        let found = sqlx::query(
             "SELECT run_id, cell, candidate, fitness, genome FROM elites ORDER BY run_id, cell",
         )
         .fetch_all(&self.pool)
         .await?;
+        let elites: Vec<EliteRow> = rows::decode_all(&found, "cells", &["run_id", "cell"])?;
         for e in elites {
             let run = run_of(e.run_id)?;
             let (cell, elite) = e.elite()?;
             out[run].library.restore(cell, elite);
         }
-        let infeasible: Vec<InfeasibleRow> = sqlx::query_as("SELECT run_id, cell, candidate, shortfall, standing, genome FROM infeasible_elites ORDER BY run_id, cell")
+        let found = sqlx::query("SELECT run_id, cell, candidate, shortfall, standing, genome FROM infeasible_elites ORDER BY run_id, cell")
             .fetch_all(&self.pool)
             .await?;
+        let infeasible: Vec<InfeasibleRow> =
+            rows::decode_all(&found, "infeasible_cells", &["run_id", "cell"])?;
         for e in infeasible {
             let run = run_of(e.run_id)?;
             let (cell, elite) = e.elite()?;
@@ -411,11 +418,12 @@ impl Db {
 
     /// Every stored candidate of the runs' current steps.
     pub async fn pending(&self) -> Result<Vec<StoredPending>, DbError> {
-        let rows: Vec<PendingRow> = sqlx::query_as(
-            "SELECT run_id, number, attempts, outcome, generation FROM pending ORDER BY run_id, number",
+        let found = sqlx::query(
+            "SELECT run_id, number, generation, status, attempts, worker, outcome, seconds, checksum FROM pending ORDER BY run_id, number",
         )
         .fetch_all(&self.pool)
         .await?;
+        let rows: Vec<PendingRow> = rows::decode_all(&found, "pending", &["run_id", "number"])?;
         rows.into_iter().map(StoredPending::try_from).collect()
     }
 
@@ -649,7 +657,7 @@ impl Db {
         offset: u64,
         limit: u32,
     ) -> Result<Vec<StoredElite>, DbError> {
-        let rows: Vec<EliteWithOutcomeRow> = sqlx::query_as(
+        let found = sqlx::query(
             "SELECT e.run_id, e.cell, e.candidate, e.fitness, e.genome, c.outcome FROM elites e \
              JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
              WHERE (?1 IS NULL OR e.run_id = ?1) AND (?2 IS NULL OR e.cell = ?2) AND (?3 IS NULL OR e.fitness >= ?3) \
@@ -662,12 +670,14 @@ impl Db {
         .bind(offset as i64)
         .fetch_all(&self.pool)
         .await?;
+        let rows: Vec<EliteWithOutcomeRow> =
+            rows::decode_all(&found, "cells", &["run_id", "cell"])?;
         rows.into_iter().map(StoredElite::try_from).collect()
     }
 
     /// A run's infeasible library in cell order, with each elite's outcome.
     pub async fn list_infeasible(&self, run_id: i64) -> Result<Vec<StoredInfeasible>, DbError> {
-        let rows: Vec<InfeasibleWithOutcomeRow> = sqlx::query_as(
+        let found = sqlx::query(
             "SELECT e.run_id, e.cell, e.candidate, e.shortfall, e.standing, e.genome, c.outcome FROM infeasible_elites e \
              JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
              WHERE e.run_id = ? ORDER BY e.cell",
@@ -675,6 +685,8 @@ impl Db {
         .bind(run_id)
         .fetch_all(&self.pool)
         .await?;
+        let rows: Vec<InfeasibleWithOutcomeRow> =
+            rows::decode_all(&found, "infeasible_cells", &["run_id", "cell"])?;
         rows.into_iter().map(StoredInfeasible::try_from).collect()
     }
 

@@ -29,6 +29,33 @@ where
         .map_err(|e| DbError::Corrupt(format!("table {table}, {key}, column {column}: {e}")))
 }
 
+/// Every row of a query decoded as `T` by column name: a column that cannot be decoded
+/// (text that is not UTF-8, a value of the wrong type) is an error naming the table, the
+/// row by its `key` columns, and the column, never a bare decode error.
+pub(super) fn decode_all<T>(
+    rows: &[SqliteRow],
+    table: &str,
+    key: &[&str],
+) -> Result<Vec<T>, DbError>
+where
+    T: for<'r> sqlx::FromRow<'r, SqliteRow>,
+{
+    rows.iter()
+        .map(|r| {
+            T::from_row(r).map_err(|e| {
+                let named: Vec<String> = key
+                    .iter()
+                    .map(|k| match r.try_get::<i64, _>(*k) {
+                        Ok(v) => format!("{k} {v}"),
+                        Err(_) => format!("{k} (unreadable)"),
+                    })
+                    .collect();
+                DbError::Corrupt(format!("table {table}, {}: {e}", named.join(" ")))
+            })
+        })
+        .collect()
+}
+
 /// A `runs` row.
 #[derive(sqlx::FromRow)]
 pub(super) struct RunRow {
@@ -46,7 +73,9 @@ impl RunRow {
     /// Its scheme, repeat and seed.
     pub fn spec(&self) -> Result<RunSpec, DbError> {
         Ok(RunSpec {
-            scheme: self.scheme.parse::<Scheme>().map_err(DbError::Corrupt)?,
+            scheme: self.scheme.parse::<Scheme>().map_err(|e| {
+                DbError::Corrupt(format!("table runs, run {}, column scheme: {e}", self.id))
+            })?,
             repeat: self.repeat as u32,
             seed: RunSeed(self.seed as u64),
         })
@@ -123,21 +152,42 @@ pub(super) fn shortfall(name: &str) -> Result<Shortfall, String> {
     Shortfall::named(name).ok_or_else(|| format!("unknown shortfall `{name}`"))
 }
 
-/// A `pending` row.
+/// A `pending` row, every column (the checksum covers them all).
 #[derive(sqlx::FromRow)]
 pub(super) struct PendingRow {
     pub run_id: i64,
     pub number: i64,
     pub generation: i64,
+    pub status: String,
     pub attempts: i64,
+    pub worker: Option<i64>,
     pub outcome: Option<String>,
+    pub seconds: Option<f64>,
+    pub checksum: Option<i64>,
 }
 
 impl TryFrom<PendingRow> for StoredPending {
     type Error = DbError;
 
+    /// The row as the scheduler reads it, once it matches its checksum (rows written
+    /// before checksums have none and are not checked).
     fn try_from(r: PendingRow) -> Result<Self, DbError> {
         let (run, number) = (r.run_id, r.number);
+        let sum = super::checksum::pending_checksum(
+            r.run_id,
+            r.number,
+            r.generation,
+            &r.status,
+            r.attempts,
+            r.worker,
+            r.outcome.as_deref(),
+            r.seconds,
+        );
+        if r.checksum.is_some_and(|c| c != sum) {
+            return Err(DbError::Corrupt(format!(
+                "table pending, run {run} candidate {number}: the row does not match its checksum, so it was changed after it was written"
+            )));
+        }
         Ok(StoredPending {
             run: r.run_id,
             number: CandidateNumber(r.number as u64),
