@@ -2,9 +2,12 @@
 //! served run, a seeded schedule of at least 10 coordinator SIGKILLs (each followed by a
 //! restart on the same database) and 20 worker events (SIGKILL, SIGTERM, SIGSTOP past the
 //! lease then SIGCONT, a client that takes 64 leases and drops its stream) at random
-//! times. At the end every candidate row (outcomes and placements included), the library
-//! and every generation's statistics equal `run`'s, and no candidate failed for want of
-//! a worker.
+//! times, and 12 faults of issue 27's list among them: a second coordinator on the live
+//! database through another name (symbolic link, hard link) or the same one, a session
+//! that sends a NaN fitness (refused, the session goes on), a wrong secret, a worker given
+//! a secret with a control character, read commands on the live file. At the end every
+//! candidate row (outcomes and placements included), the library and every generation's
+//! statistics equal `run`'s, and no candidate failed for want of a worker.
 
 use std::path::Path;
 use std::process::Command;
@@ -22,6 +25,16 @@ const FINISH: Duration = Duration::from_secs(600);
 const COORDINATOR_KILLS: usize = 10;
 const WORKER_EVENTS: usize = 20;
 const WORKERS: usize = 3;
+const FAULTS: usize = 12;
+
+/// An event of the schedule.
+#[derive(Clone, Copy, Debug)]
+enum Event {
+    CoordinatorKill,
+    Worker,
+    /// One of issue 27's list, drawn when it comes.
+    Fault,
+}
 
 /// splitmix64: the schedule's generator, seeded, so a failing schedule can be replayed.
 struct Schedule(u64);
@@ -131,6 +144,191 @@ fn lease_and_drop(rt: &tokio::runtime::Runtime, url: &str) -> usize {
     })
 }
 
+/// One fault of issue 27's list, drawn from the schedule, against the live coordinator
+/// (pid `live`): each must be refused with a clear error, or read without writing, and
+/// change nothing. Returns what it did.
+fn fault(
+    schedule: &mut Schedule,
+    rt: &tokio::runtime::Runtime,
+    dir: &Path,
+    db: &Path,
+    url: &str,
+    live: u32,
+) -> String {
+    let coordinator = |args: &[&str]| {
+        Command::new(binary("strider-coordinator"))
+            .args(args)
+            .current_dir(strider_tests::workspace_root())
+            .output()
+            .unwrap()
+    };
+    let refused_with = |out: &std::process::Output, what: &str, wanted: &str| {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{what}: {err}");
+        assert!(err.contains(wanted), "{what}: {err}");
+    };
+    match schedule.below(6) {
+        kind @ 0..=2 => {
+            // A second coordinator on the live file: by its own name, a symbolic link, a
+            // hard link. Refused before it opens anything; no log left beside the name.
+            let name = match kind {
+                0 => db.to_path_buf(),
+                1 => {
+                    let link = dir.join("symlink.db");
+                    let _ = std::fs::remove_file(&link);
+                    std::os::unix::fs::symlink(db, &link).unwrap();
+                    link
+                }
+                _ => {
+                    let link = dir.join("hard.db");
+                    let _ = std::fs::remove_file(&link);
+                    std::fs::hard_link(db, &link).unwrap();
+                    link
+                }
+            };
+            let port = free_port().to_string();
+            let out = coordinator(&[
+                "serve",
+                "--db",
+                name.to_str().unwrap(),
+                "--experiment",
+                FIXTURE,
+                "--listen",
+                &format!("127.0.0.1:{port}"),
+                "--token-file",
+                strider_tests::secret_file(dir, SECRET).to_str().unwrap(),
+            ]);
+            let wanted = if kind == 2 {
+                "has 2 names (hard links)".to_string()
+            } else {
+                format!("pid {live}")
+            };
+            refused_with(&out, &format!("second coordinator {name:?}"), &wanted);
+            if kind > 0 {
+                let mut log = name.as_os_str().to_owned();
+                log.push("-wal");
+                assert!(!Path::new(&log).exists(), "a log was left beside {name:?}");
+                std::fs::remove_file(&name).unwrap();
+            }
+            [
+                "second coordinator, same name",
+                "second coordinator, symbolic link",
+                "second coordinator, hard link",
+            ][kind as usize]
+                .to_string()
+        }
+        3 => format!("NaN fitness: {}", nan_fitness(rt, url)),
+        4 => {
+            // A wrong secret, then a worker whose secret a header cannot carry.
+            let status = rt.block_on(async {
+                let mut client = WorkerServiceClient::connect(url.to_string()).await.unwrap();
+                let mut request =
+                    tonic::Request::new(tokio_stream::iter(Vec::<v1::WorkerMessage>::new()));
+                request.metadata_mut().insert(
+                    "authorization",
+                    "Bearer not-the-secret-0123456789abcdef".parse().unwrap(),
+                );
+                client.work(request).await.err()
+            });
+            assert_eq!(status.map(|s| s.code()), Some(tonic::Code::Unauthenticated));
+            let bad = dir.join("bell.secret");
+            std::fs::write(&bad, "chaos-secret-0123456789\u{7}abcdef\n").unwrap();
+            let out = Command::new(binary("strider-worker"))
+                .args(["--connect", url, "--token-file", bad.to_str().unwrap()])
+                .output()
+                .unwrap();
+            refused_with(
+                &out,
+                "worker with a control character in its secret",
+                "at character",
+            );
+            "wrong secret; secret with a control character".to_string()
+        }
+        _ => {
+            // The read commands on the live file: they read through its log, write nothing.
+            let d = db.to_str().unwrap();
+            for args in [vec!["export", "--db", d], vec!["analyse", "--db", d]] {
+                let out = coordinator(&args);
+                assert!(
+                    out.status.success(),
+                    "{args:?} on the live database: {}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            "export and analyse on the live database".to_string()
+        }
+    }
+}
+
+/// A session holding the secret that takes one lease and answers it with a NaN fitness:
+/// refused with a `ResultRefused` on the same stream (no attempt counted), then dropped.
+fn nan_fitness(rt: &tokio::runtime::Runtime, url: &str) -> &'static str {
+    rt.block_on(async {
+        let mut client = WorkerServiceClient::connect(url.to_string()).await.unwrap();
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        tx.send(v1::WorkerMessage {
+            kind: Some(worker_message::Kind::Hello(v1::Hello {
+                protocol_version: strider_proto::PROTOCOL_VERSION,
+                worker_name: "nan-sender".into(),
+                slots: 1,
+                build: strider_common::build_id(),
+            })),
+        })
+        .await
+        .unwrap();
+        let mut request = tonic::Request::new(tokio_stream::wrappers::ReceiverStream::new(rx));
+        request
+            .metadata_mut()
+            .insert("authorization", format!("Bearer {SECRET}").parse().unwrap());
+        let mut inbound = client.work(request).await.unwrap().into_inner();
+        // Between generations nothing may be free for a while: then there is nothing to
+        // answer, and the session ends.
+        let until = tokio::time::Instant::now() + Duration::from_secs(2);
+        let id = loop {
+            match tokio::time::timeout_at(until, inbound.message()).await {
+                Ok(Ok(Some(v1::CoordinatorMessage {
+                    kind: Some(v1::coordinator_message::Kind::Assignment(a)),
+                }))) => break a.id,
+                Ok(Ok(Some(_))) => {}
+                Ok(other) => panic!("the session ended before an assignment: {other:?}"),
+                Err(_) => return "no candidate free",
+            }
+        };
+        let nan = v1::Outcome {
+            kind: Some(v1::outcome::Kind::Valid(v1::Valid {
+                fitness: f64::NAN,
+                stats: Some(v1::TrialStats::default()),
+                features: vec![0.0; 6],
+                cell: 0,
+            })),
+            controller: vec![0.0; 7],
+        };
+        tx.send(v1::WorkerMessage {
+            kind: Some(worker_message::Kind::Result(v1::Result {
+                id,
+                outcome: Some(nan),
+                seconds: 0.1,
+            })),
+        })
+        .await
+        .unwrap();
+        let until = tokio::time::Instant::now() + START;
+        loop {
+            match tokio::time::timeout_at(until, inbound.message()).await {
+                Ok(Ok(Some(v1::CoordinatorMessage {
+                    kind: Some(v1::coordinator_message::Kind::ResultRefused(r)),
+                }))) => {
+                    assert_eq!(r.code, "InvalidArgument", "{r:?}");
+                    assert_eq!(r.id, id);
+                    return "refused, the session went on";
+                }
+                Ok(Ok(Some(_))) => {}
+                other => panic!("no refusal for a NaN fitness: {other:?}"),
+            }
+        }
+    })
+}
+
 #[test]
 fn a_run_through_coordinator_kills_and_worker_faults_ends_as_run_ends_it() {
     let (expected, expected_rows) = run_builds(FIXTURE);
@@ -151,25 +349,43 @@ fn a_run_through_coordinator_kills_and_worker_faults_ends_as_run_ends_it() {
     coordinator.wait_for_line("for a worker", |l| l.contains("worker connected"), START);
 
     // Worker events and coordinator kills, interleaved in a seeded order.
-    let mut events: Vec<bool> =
-        [vec![true; COORDINATOR_KILLS], vec![false; WORKER_EVENTS]].concat();
+    let mut events: Vec<Event> = [
+        vec![Event::CoordinatorKill; COORDINATOR_KILLS],
+        vec![Event::Worker; WORKER_EVENTS],
+        vec![Event::Fault; FAULTS],
+    ]
+    .concat();
     for i in (1..events.len()).rev() {
         events.swap(i, schedule.below(i as u64 + 1) as usize);
     }
     let mut log = Vec::new();
-    for kill_coordinator in events {
+    for event in events {
         std::thread::sleep(schedule.pause());
         assert!(
             coordinator.exited().is_none(),
             "the run finished before the schedule did (after {log:?}): make the fixture longer\n{}",
             coordinator.log()
         );
-        if kill_coordinator {
-            coordinator.signal(libc::SIGKILL);
-            drop(coordinator);
-            coordinator = serve(&dir, &db, port);
-            log.push("coordinator SIGKILL".to_string());
-            continue;
+        match event {
+            Event::CoordinatorKill => {
+                coordinator.signal(libc::SIGKILL);
+                drop(coordinator);
+                coordinator = serve(&dir, &db, port);
+                log.push("coordinator SIGKILL".to_string());
+                continue;
+            }
+            Event::Fault => {
+                log.push(fault(
+                    &mut schedule,
+                    &rt,
+                    &dir,
+                    &db,
+                    &url,
+                    coordinator.pid(),
+                ));
+                continue;
+            }
+            Event::Worker => {}
         }
         let w = schedule.below(WORKERS as u64) as usize;
         match schedule.below(4) {
