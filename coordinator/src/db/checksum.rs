@@ -11,6 +11,7 @@
 
 use super::rows::column;
 use super::DbError;
+use crate::library::GenerationStats;
 use sqlx::sqlite::SqliteRow;
 
 /// The columns of a candidate row the checksum covers, as stored.
@@ -236,6 +237,43 @@ pub fn pending_checksum(
     h.field(outcome.unwrap_or("-").as_bytes());
     h.field(real(seconds).as_bytes());
     h.0 as i64
+}
+
+impl TryFrom<GenerationColumns> for (u32, u64, GenerationStats) {
+    type Error = DbError;
+
+    /// A generations row as the run's statistics; a count out of its type's range (a
+    /// damaged row written before checksums) is an error naming the row and column.
+    fn try_from(r: GenerationColumns) -> Result<Self, DbError> {
+        let key = format!("run {} generation {}", r.run, r.generation);
+        let out_of_range = |name: &str, v: i64| {
+            DbError::Corrupt(format!(
+                "table generations, {key}, column {name}: {v} is out of range"
+            ))
+        };
+        let n = |name: &str, v: i64| usize::try_from(v).map_err(|_| out_of_range(name, v));
+        Ok((
+            u32::try_from(r.generation).map_err(|_| out_of_range("generation", r.generation))?,
+            u64::try_from(r.evaluations).map_err(|_| out_of_range("evaluations", r.evaluations))?,
+            GenerationStats {
+                coverage: r.coverage,
+                elites: n("elites", r.elites)?,
+                max_fitness: r.max_fitness,
+                mean_fitness: r.mean_fitness,
+                min_fitness: r.min_fitness,
+                qd_score: r.qd_score,
+                new: n("new", r.new)?,
+                improved: n("improved", r.improved)?,
+                discarded: n("discarded", r.discarded)?,
+                rejected: n("rejected", r.rejected)?,
+                invalid: n("invalid", r.invalid)?,
+                infeasible_elites: n("infeasible_elites", r.infeasible_elites)?,
+                infeasible_only: n("infeasible_only", r.infeasible_only)?,
+                infeasible_new: n("infeasible_new", r.infeasible_new)?,
+                infeasible_improved: n("infeasible_improved", r.infeasible_improved)?,
+            },
+        ))
+    }
 }
 
 /// A REAL by its bits (`-` for NULL), so that no rounding of a printed figure hides a change.

@@ -424,6 +424,25 @@ impl Db {
         .fetch_all(&self.pool)
         .await?;
         let rows: Vec<PendingRow> = rows::decode_all(&found, "pending", &["run_id", "number"])?;
+        // Each row against its checksum (rows written before checksums have none).
+        for r in &rows {
+            let sum = checksum::pending_checksum(
+                r.run_id,
+                r.number,
+                r.generation,
+                &r.status,
+                r.attempts,
+                r.worker,
+                r.outcome.as_deref(),
+                r.seconds,
+            );
+            if r.checksum.is_some_and(|c| c != sum) {
+                return Err(DbError::Corrupt(format!(
+                    "table pending, run {} candidate {}: the row does not match its checksum, so it was changed after it was written",
+                    r.run_id, r.number
+                )));
+            }
+        }
         rows.into_iter().map(StoredPending::try_from).collect()
     }
 

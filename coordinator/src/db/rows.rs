@@ -2,10 +2,9 @@
 //! without a silent mix-up), and their conversion to the model's types, which refuses text
 //! that names nothing.
 
-use super::checksum::GenerationColumns;
 use super::{standing_of, DbError, StoredElite, StoredInfeasible};
 use crate::changes::StoredPending;
-use crate::library::{Elite, GenerationStats, InfeasibleElite};
+use crate::library::{Elite, InfeasibleElite};
 use sqlx::sqlite::{Sqlite, SqliteRow};
 use sqlx::Row;
 use std::fmt::Display;
@@ -169,25 +168,10 @@ pub(super) struct PendingRow {
 impl TryFrom<PendingRow> for StoredPending {
     type Error = DbError;
 
-    /// The row as the scheduler reads it, once it matches its checksum (rows written
-    /// before checksums have none and are not checked).
+    /// The row as the scheduler reads it (its checksum is checked by the reader, in
+    /// `Db::pending`).
     fn try_from(r: PendingRow) -> Result<Self, DbError> {
         let (run, number) = (r.run_id, r.number);
-        let sum = super::checksum::pending_checksum(
-            r.run_id,
-            r.number,
-            r.generation,
-            &r.status,
-            r.attempts,
-            r.worker,
-            r.outcome.as_deref(),
-            r.seconds,
-        );
-        if r.checksum.is_some_and(|c| c != sum) {
-            return Err(DbError::Corrupt(format!(
-                "table pending, run {run} candidate {number}: the row does not match its checksum, so it was changed after it was written"
-            )));
-        }
         Ok(StoredPending {
             run: r.run_id,
             number: CandidateNumber(r.number as u64),
@@ -203,43 +187,6 @@ impl TryFrom<PendingRow> for StoredPending {
                     ))
                 })?,
         })
-    }
-}
-
-impl TryFrom<GenerationColumns> for (u32, u64, GenerationStats) {
-    type Error = DbError;
-
-    /// A generations row as the run's statistics; a count out of its type's range (a
-    /// damaged row written before checksums) is an error naming the row and column.
-    fn try_from(r: GenerationColumns) -> Result<Self, DbError> {
-        let key = format!("run {} generation {}", r.run, r.generation);
-        let out_of_range = |name: &str, v: i64| {
-            DbError::Corrupt(format!(
-                "table generations, {key}, column {name}: {v} is out of range"
-            ))
-        };
-        let n = |name: &str, v: i64| usize::try_from(v).map_err(|_| out_of_range(name, v));
-        Ok((
-            u32::try_from(r.generation).map_err(|_| out_of_range("generation", r.generation))?,
-            u64::try_from(r.evaluations).map_err(|_| out_of_range("evaluations", r.evaluations))?,
-            GenerationStats {
-                coverage: r.coverage,
-                elites: n("elites", r.elites)?,
-                max_fitness: r.max_fitness,
-                mean_fitness: r.mean_fitness,
-                min_fitness: r.min_fitness,
-                qd_score: r.qd_score,
-                new: n("new", r.new)?,
-                improved: n("improved", r.improved)?,
-                discarded: n("discarded", r.discarded)?,
-                rejected: n("rejected", r.rejected)?,
-                invalid: n("invalid", r.invalid)?,
-                infeasible_elites: n("infeasible_elites", r.infeasible_elites)?,
-                infeasible_only: n("infeasible_only", r.infeasible_only)?,
-                infeasible_new: n("infeasible_new", r.infeasible_new)?,
-                infeasible_improved: n("infeasible_improved", r.infeasible_improved)?,
-            },
-        ))
     }
 }
 
