@@ -87,6 +87,12 @@ pub struct TrialLimits {
     /// that a design in the library still meets the brief at any finer step
     /// (docs/model.md section 6, "A verdict that holds at a finer step").
     pub speed_margin: f64,
+    /// A design feasible at the run's physics step is simulated again at a step this many
+    /// times finer (`physics_substeps` times this) and is feasible only if it is feasible
+    /// there too; otherwise it is invalid, `step_sensitive`. 1 turns the confirmation off.
+    /// Why: a balance that holds at one step and not at a finer one is the integrator's,
+    /// not the robot's (docs/model.md section 6, "Confirmed at a finer step").
+    pub confirm_substeps_factor: u32,
 }
 
 impl Default for TrialLimits {
@@ -101,6 +107,7 @@ impl Default for TrialLimits {
             max_foot_slip_ratio: 0.5,
             max_low_forward_share: 0.4,
             speed_margin: 0.05,
+            confirm_substeps_factor: 2,
         }
     }
 }
@@ -373,6 +380,12 @@ impl Experiment {
             600.0,
         )?;
         check_real("trial.speed_margin", self.trial.speed_margin, 0.0, 1.0)?;
+        check_int(
+            "trial.confirm_substeps_factor",
+            self.trial.confirm_substeps_factor,
+            1,
+            8,
+        )?;
         check_real(
             "search.feasible_parent_share",
             self.search.feasible_parent_share,

@@ -89,6 +89,15 @@ pub enum InvalidReason {
         /// Its distance, m.
         distance: f64,
     },
+    /// Feasible at the run's physics step, not at a finer one (`[trial]
+    /// confirm_substeps_factor`): its balance or speed is the integrator's, not the robot's.
+    /// `at_time` is when the finer trial ended (its whole length if it ran to the end).
+    StepSensitive {
+        /// Physics steps per control step of the finer trial.
+        substeps: u32,
+        /// The finer trial's verdict, e.g. "fell: tilted 20.3° (limit 20°) at 12.40 s".
+        verdict: String,
+    },
     /// No result came back: the workers evaluating it died or hung `attempts` times, so the
     /// coordinator gave up on it (its generation goes on without it).
     EvaluationFailed {
@@ -118,6 +127,10 @@ impl std::fmt::Display for InvalidReason {
             InvalidReason::EvaluationFailed { attempts, last } => {
                 write!(f, "evaluation failed {attempts} times (last: {last})")
             }
+            InvalidReason::StepSensitive { substeps, verdict } => write!(
+                f,
+                "feasible at the run's step, not at {substeps} physics steps per control step: {verdict}"
+            ),
         }
     }
 }
@@ -202,6 +215,8 @@ impl std::fmt::Display for Fall {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Shortfall {
+    /// Met the brief at the run's physics step, not at the finer step that confirms it.
+    StepSensitive,
     /// Ran to the end upright and forward, below the brief's speed.
     Speed,
     /// Ran to the end upright, not forward.
@@ -218,7 +233,8 @@ pub enum Shortfall {
 
 impl Shortfall {
     /// Every shortfall, nearest the brief first.
-    pub const ALL: [Shortfall; 6] = [
+    pub const ALL: [Shortfall; 7] = [
+        Shortfall::StepSensitive,
         Shortfall::Speed,
         Shortfall::Backward,
         Shortfall::Skating,
@@ -230,6 +246,7 @@ impl Shortfall {
     /// Its name (database, CSV, reports).
     pub fn name(self) -> &'static str {
         match self {
+            Shortfall::StepSensitive => "step_sensitive",
             Shortfall::Speed => "speed",
             Shortfall::Backward => "backward",
             Shortfall::Skating => "skating",
@@ -397,7 +414,8 @@ impl Outcome {
                 | InvalidReason::Fell { .. }
                 | InvalidReason::Skating { .. }
                 | InvalidReason::NonFinite { .. }
-                | InvalidReason::BlowUp { .. } => Standing::EndedEarly { at_time: *at_time },
+                | InvalidReason::BlowUp { .. }
+                | InvalidReason::StepSensitive { .. } => Standing::EndedEarly { at_time: *at_time },
             },
         }
     }
@@ -416,6 +434,7 @@ impl Outcome {
                 InvalidReason::NoForwardProgress { .. } => Some(Shortfall::Backward),
                 InvalidReason::Fell { .. } => Some(Shortfall::Fell),
                 InvalidReason::Skating { .. } => Some(Shortfall::Skating),
+                InvalidReason::StepSensitive { .. } => Some(Shortfall::StepSensitive),
                 InvalidReason::SelfContact { .. } => Some(Shortfall::SelfContact),
                 InvalidReason::NonFinite { .. } | InvalidReason::BlowUp { .. } => {
                     Some(Shortfall::Unstable)

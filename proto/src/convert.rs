@@ -249,6 +249,11 @@ impl From<&Outcome> for v1::Outcome {
                         w.reason = Reason::NoForwardProgress.into();
                         w.value = *distance;
                     }
+                    InvalidReason::StepSensitive { substeps, verdict } => {
+                        w.reason = Reason::StepSensitive.into();
+                        w.value = f64::from(*substeps);
+                        w.quantity = verdict.clone();
+                    }
                     InvalidReason::EvaluationFailed { attempts, last } => {
                         w.reason = Reason::EvaluationFailed.into();
                         w.value = f64::from(*attempts);
@@ -411,6 +416,19 @@ impl TryFrom<&v1::Outcome> for Outcome {
                     Ok(Reason::NoForwardProgress) => InvalidReason::NoForwardProgress {
                         distance: finite("outcome.invalid.value", i.value)?,
                     },
+                    Ok(Reason::StepSensitive) => {
+                        let substeps = finite("outcome.invalid.value", i.value)?;
+                        if !(1.0..=512.0).contains(&substeps) || substeps.fract() != 0.0 {
+                            return Err(wire_err(
+                                "outcome.invalid.value",
+                                format!("{substeps} is not a number of physics steps per control step (1 to 512)"),
+                            ));
+                        }
+                        InvalidReason::StepSensitive {
+                            substeps: substeps as u32,
+                            verdict: i.quantity.clone(),
+                        }
+                    }
                     Ok(Reason::EvaluationFailed) => {
                         return Err(wire_err(
                             "outcome.invalid.reason",

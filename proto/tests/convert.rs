@@ -118,6 +118,14 @@ fn outcomes() -> Vec<Outcome> {
             at_time: 5.0,
             controller: c,
         },
+        Outcome::Invalid {
+            reason: InvalidReason::StepSensitive {
+                substeps: 16,
+                verdict: "fell: body tilted 20.1 degrees (limit 20.0)".into(),
+            },
+            at_time: 6.685,
+            controller: c,
+        },
     ]
 }
 
@@ -216,5 +224,21 @@ fn a_nan_fitness_or_malformed_outcome_is_refused_by_field() {
     assert_eq!(
         Outcome::try_from(&bad).unwrap_err().to_string(),
         "outcome.controller: expected 7 values, found 0"
+    );
+    let step_sensitive = outcomes().pop().unwrap();
+    assert!(matches!(
+        step_sensitive,
+        strider_common::Outcome::Invalid {
+            reason: InvalidReason::StepSensitive { .. },
+            ..
+        }
+    ));
+    let mut bad = v1::Outcome::from(&step_sensitive);
+    if let Some(v1::outcome::Kind::Invalid(i)) = bad.kind.as_mut() {
+        i.value = 2.5;
+    }
+    assert_eq!(
+        Outcome::try_from(&bad).unwrap_err().to_string(),
+        "outcome.invalid.value: 2.5 is not a number of physics steps per control step (1 to 512)"
     );
 }

@@ -171,6 +171,9 @@ impl Study {
             let mut c = *ctx;
             c.settings.physics_substeps = settings[s].physics_substeps;
             c.limits.upright_after_seconds = settings[s].upright_after_seconds;
+            // Each step judged on its own: the run's confirmation at a finer step is what
+            // this study measures, not part of it.
+            c.limits.confirm_substeps_factor = 1;
             let o = evaluate(&c, &genomes[d], scheme, CandidateSeed::new(1, d as u64));
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
             Trial::of(&o)

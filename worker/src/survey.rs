@@ -104,6 +104,8 @@ pub enum Verdict {
     Skated,
     /// Upright and forward, below the brief's speed.
     TooSlow,
+    /// Met the brief at the run's step, not at the finer confirming step.
+    StepSensitive,
     /// Met the whole brief.
     Passed,
 }
@@ -135,6 +137,7 @@ impl Verdict {
             Verdict::Backward,
             Verdict::Skated,
             Verdict::TooSlow,
+            Verdict::StepSensitive,
             Verdict::Passed,
         ]);
         v
@@ -150,14 +153,21 @@ impl Verdict {
 
     /// Whether the robot ran the whole trial upright, moving forward.
     pub fn walked_forward_upright(self) -> bool {
-        matches!(self, Verdict::TooSlow | Verdict::Passed)
+        matches!(
+            self,
+            Verdict::TooSlow | Verdict::StepSensitive | Verdict::Passed
+        )
     }
 
     /// Whether the robot ran the whole trial upright.
     pub fn upright_to_the_end(self) -> bool {
         matches!(
             self,
-            Verdict::Backward | Verdict::Skated | Verdict::TooSlow | Verdict::Passed
+            Verdict::Backward
+                | Verdict::Skated
+                | Verdict::TooSlow
+                | Verdict::StepSensitive
+                | Verdict::Passed
         )
     }
 
@@ -184,6 +194,7 @@ impl Verdict {
             Verdict::Backward => "backward".into(),
             Verdict::Skated => "skated".into(),
             Verdict::TooSlow => "too slow".into(),
+            Verdict::StepSensitive => "step-sensitive".into(),
             Verdict::Passed => "passed".into(),
         }
     }
@@ -226,6 +237,7 @@ impl Verdict {
                 | InvalidReason::EvaluationFailed { .. } => Verdict::Unstable,
                 InvalidReason::NoForwardProgress { .. } => Verdict::Backward,
                 InvalidReason::Skating { .. } => Verdict::Skated,
+                InvalidReason::StepSensitive { .. } => Verdict::StepSensitive,
             },
         }
     }
@@ -426,6 +438,7 @@ fn cause(verdict: Verdict, sweep: &GaitSweep, brief_distance: f64) -> Option<Cau
         // No cause is computed for skating: it needs the trial's foot contacts.
         Verdict::Passed
         | Verdict::Skated
+        | Verdict::StepSensitive
         | Verdict::RejectedMass
         | Verdict::RejectedHeight
         | Verdict::RejectedStartPoseContact => None,

@@ -7,8 +7,63 @@ use strider_common::{
     BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, StartPose,
 };
 
-/// Evaluates one morphology with one controller: static checks, trial, speed check.
+/// Evaluates one morphology with one controller: static checks, trial, speed check, and,
+/// for a design feasible at the run's step, the same trial at the finer confirming step
+/// (`[trial] confirm_substeps_factor`). The outcome's figures are the run's step's: the
+/// finer trial only decides whether they stand.
 pub fn evaluate_controller(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    observer: &mut impl Observer,
+) -> Outcome {
+    let outcome = judge_at_step(ctx, genome, plan, controller, observer);
+    let factor = ctx.limits.confirm_substeps_factor;
+    if factor <= 1 || !matches!(outcome, Outcome::Valid { .. }) {
+        return outcome;
+    }
+    let mut finer = *ctx;
+    finer.settings.physics_substeps = ctx.settings.physics_substeps * factor;
+    let confirmation = judge_at_step(&finer, genome, plan, controller, &mut ());
+    match confirmation {
+        Outcome::Valid { .. } => outcome,
+        Outcome::Rejected { .. } | Outcome::Invalid { .. } => Outcome::Invalid {
+            at_time: ended_at(&confirmation),
+            reason: InvalidReason::StepSensitive {
+                substeps: finer.settings.physics_substeps,
+                verdict: describe(&confirmation),
+            },
+            controller: *controller,
+        },
+    }
+}
+
+/// When a trial that did not meet the brief ended, s: a stopped trial's time, else its
+/// whole length.
+fn ended_at(outcome: &Outcome) -> f64 {
+    match outcome {
+        Outcome::Invalid { at_time, .. } => *at_time,
+        Outcome::Rejected { stats, .. } => stats.as_ref().map_or(0.0, |s| s.duration),
+        Outcome::Valid { stats, .. } => stats.duration,
+    }
+}
+
+/// A one-line verdict for a trial that did not meet the brief.
+fn describe(outcome: &Outcome) -> String {
+    match outcome {
+        Outcome::Invalid { reason, .. } => reason.to_string(),
+        Outcome::Rejected { violations, .. } => violations
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join("; "),
+        Outcome::Valid { .. } => "feasible".into(),
+    }
+}
+
+/// [`evaluate_controller`] at the context's physics step only.
+fn judge_at_step(
     ctx: &EvalContext,
     genome: &Genome,
     plan: &BodyPlan,

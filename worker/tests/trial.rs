@@ -654,6 +654,8 @@ fn a_design_must_beat_the_brief_speed_by_the_margin() {
     let base = evaluate(&ctx(), &max(), Scheme::Static, CandidateSeed::new(0, 0));
     let speed = base.stats().expect("MAX completes its trial").speed;
     let mut c = ctx();
+    // The margin alone (at 480 Hz MAX walks 2.5 % slower, which the confirmation would see).
+    c.limits.confirm_substeps_factor = 1;
     c.brief.min_speed = speed / 1.02;
     // Inside a 5 % margin: refused for speed, the limit being the speed asked for.
     c.limits.speed_margin = 0.05;
@@ -708,4 +710,45 @@ fn a_robot_fast_enough_for_the_brief_must_stay_up_the_longer_window() {
         } => assert!(at_time > 8.0 && at_time <= 20.0 + 1e-9, "{at_time}"),
         other => panic!("expected a fall in the longer window, got {other:?}"),
     }
+}
+
+#[test]
+fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
+    // An elite of a 1000-generation STATIC run made without the confirmation: it walks the
+    // trial and the 15 s after it at 240 Hz, and tips over at 480 Hz.
+    let fixture = |name: &str| {
+        Genome::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/fixtures")
+                .join(name),
+        )
+        .unwrap()
+    };
+    let g = fixture("step_sensitive.json");
+    let mut unconfirmed = ctx();
+    unconfirmed.limits.confirm_substeps_factor = 1;
+    let at_run_step = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(
+        matches!(at_run_step, Outcome::Valid { .. }),
+        "{at_run_step:?}"
+    );
+    match evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Invalid {
+            reason: InvalidReason::StepSensitive { substeps, verdict },
+            at_time,
+            ..
+        } => {
+            assert_eq!(substeps, 2 * ctx().settings.physics_substeps);
+            assert!(verdict.starts_with("fell"), "{verdict}");
+            assert!(at_time > 0.0 && at_time < 20.0, "{at_time}");
+        }
+        other => panic!("expected step_sensitive, got {other:?}"),
+    }
+    // A design of the same run that holds at the finer step keeps the run's step's
+    // figures, bit for bit.
+    let g = fixture("walks_at_both_steps.json");
+    let confirmed = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(matches!(confirmed, Outcome::Valid { .. }), "{confirmed:?}");
+    let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert_eq!(outcome_hash(&confirmed), outcome_hash(&plain));
 }

@@ -178,9 +178,11 @@ fn lock(path: &Path) -> Result<std::fs::File, DbError> {
 pub fn standing_of(shortfall: Shortfall, figure: f64) -> Standing {
     match shortfall {
         Shortfall::Speed | Shortfall::Backward => Standing::TooSlow { speed: figure },
-        Shortfall::Skating | Shortfall::Fell | Shortfall::SelfContact | Shortfall::Unstable => {
-            Standing::EndedEarly { at_time: figure }
-        }
+        Shortfall::StepSensitive
+        | Shortfall::Skating
+        | Shortfall::Fell
+        | Shortfall::SelfContact
+        | Shortfall::Unstable => Standing::EndedEarly { at_time: figure },
     }
 }
 

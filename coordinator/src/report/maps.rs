@@ -144,6 +144,7 @@ pub fn stacking_svg(
 pub const FEASIBLE_COLOUR: &str = "#1b7837";
 fn shortfall_colour(s: Shortfall) -> &'static str {
     match s {
+        Shortfall::StepSensitive => "#a6dba0",
         Shortfall::Speed => "#f1b82d",
         Shortfall::Backward => "#a6611a",
         Shortfall::Skating => "#4393c3",
@@ -172,6 +173,7 @@ fn frontier_legend(s: &mut String, x: f64, y: f64) {
         Shortfall::ALL.iter().map(|&sh| {
             (
                 match sh {
+                    Shortfall::StepSensitive => "step-sensitive",
                     Shortfall::Speed => "too slow",
                     Shortfall::Backward => "backward",
                     Shortfall::Skating => "skating",
