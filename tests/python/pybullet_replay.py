@@ -67,6 +67,11 @@ robot = p.loadURDF(
     args.urdf,
     basePosition=pose["base_xyz"],
     baseOrientation=p.getQuaternionFromEuler(pose["base_rpy"]),
+    # Bullet otherwise recomputes each link's inertia from its collision box as if solid:
+    # our links are tubes with motors at their joints and the body carries the payload, so
+    # that gave a body about twice our moments of inertia (1.9x about pitch and yaw, 2.8x
+    # about roll for one elite).
+    flags=p.URDF_USE_INERTIA_FROM_FILE,
 )
 n = p.getNumJoints(robot)
 info = [p.getJointInfo(robot, i) for i in range(n)]

@@ -20,6 +20,7 @@ robot = p.loadURDF(
     urdf,
     basePosition=pose["base_xyz"],
     baseOrientation=p.getQuaternionFromEuler(pose["base_rpy"]),
+    flags=p.URDF_USE_INERTIA_FROM_FILE,  # the URDF's inertias, not solid boxes
 )
 info = [p.getJointInfo(robot, i) for i in range(p.getNumJoints(robot))]
 joints = {i[1].decode(): i[0] for i in info}
