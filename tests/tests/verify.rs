@@ -160,6 +160,33 @@ fn verify_and_resume_catch_edits_sqlite_cannot_see() {
         out.contains("the generations table's row for generation 2"),
         "{out}"
     );
+    // The stored experiment: a byte of its definition (here a changed minimum speed, which
+    // would judge the rest of the run by another brief), which SQLite cannot see.
+    let definition = corrupted(
+        &db,
+        "definition",
+        "UPDATE experiment SET definition = replace(definition, 'min_speed = 0.05', \
+         'min_speed = 0.06')",
+    );
+    assert_ne!(
+        sqlite(&definition, "SELECT definition FROM experiment"),
+        sqlite(&db, "SELECT definition FROM experiment"),
+        "the edit changed the definition"
+    );
+    let (code, out) = verify(&definition, "0");
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("table experiment, row 1") && out.contains("does not match its checksum"),
+        "{out}"
+    );
+    let out = run(
+        "strider-coordinator",
+        &["run", "--db", definition.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("table experiment, row 1"), "{err}");
+
     // An undamaged file passes SQLite's own check, which verify now runs.
     assert!(verify(&db, "0").1.contains("integrity check: ok"));
 

@@ -210,6 +210,15 @@ impl GenerationColumns {
     }
 }
 
+/// The checksum of the `experiment` row: its columns in the table's order.
+pub fn experiment_checksum(name: &str, definition: &str, build: &str, created_at: &str) -> i64 {
+    let mut h = Fnv1a::default();
+    for v in [name, definition, build, created_at] {
+        h.field(v.as_bytes());
+    }
+    h.0 as i64
+}
+
 /// The checksum of a `pending` row: its columns in the table's order, as
 /// [`CandidateColumns::checksum`] writes them (NULL as `-`).
 #[allow(clippy::too_many_arguments)]
@@ -377,6 +386,21 @@ mod tests {
             let mut g = generation();
             change(&mut g);
             assert_ne!(g.checksum(), base, "change of column {i} went unseen");
+        }
+    }
+
+    #[test]
+    fn any_change_of_an_experiment_column_changes_its_checksum() {
+        let base = experiment_checksum("e", "seed = 1\n", "strider 0.1.0", "2026-11-25T18:00:00Z");
+        for other in [
+            experiment_checksum("f", "seed = 1\n", "strider 0.1.0", "2026-11-25T18:00:00Z"),
+            experiment_checksum("e", "seed = 3\n", "strider 0.1.0", "2026-11-25T18:00:00Z"),
+            experiment_checksum("e", "seed = 1\n", "strider 0.1.1", "2026-11-25T18:00:00Z"),
+            experiment_checksum("e", "seed = 1\n", "strider 0.1.0", "2026-11-25T18:00:01Z"),
+            // A byte moved from one column to the next.
+            experiment_checksum("es", "eed = 1\n", "strider 0.1.0", "2026-11-25T18:00:00Z"),
+        ] {
+            assert_ne!(other, base);
         }
     }
 

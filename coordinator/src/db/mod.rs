@@ -14,7 +14,7 @@ use checksum::{GenerationColumns, GENERATION_COLUMNS};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use strider_common::rng::CandidateNumber;
 use strider_common::{CellIndex, Experiment, Genome, Outcome, Shortfall, Standing};
@@ -124,13 +124,48 @@ pub struct StoredInfeasible {
 pub struct Db {
     pool: SqlitePool,
     /// The writer's exclusive lock, held as long as any clone lives (`open_exclusive`).
-    _lock: Option<std::sync::Arc<std::fs::File>>,
+    _lock: Option<std::sync::Arc<WriterLock>>,
 }
 
-/// Takes the exclusive lock that makes one coordinator the only writer of `path`: an
-/// advisory lock on `path.lock` (released by the system when the process ends, however it
-/// ends), which also says who holds it.
-fn lock(path: &Path) -> Result<std::fs::File, DbError> {
+/// The writer's lock on a database: an advisory lock on `NAME.lock` beside it, held while
+/// this value lives (and released by the system when the process ends, however it ends).
+/// Dropped at a clean exit, it removes its file: a stopped run leaves nothing beside its
+/// database.
+#[derive(Debug)]
+struct WriterLock {
+    /// Held open: the lock is the open file's.
+    _file: std::fs::File,
+    path: PathBuf,
+}
+
+impl Drop for WriterLock {
+    fn drop(&mut self) {
+        // Removed while still held: a process that opened the file before it went sees,
+        // once it holds the lock, that the name no longer leads to it, and tries again.
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Whether `file` is still the file that `path` names (not removed or replaced).
+fn names(path: &Path, file: &std::fs::File) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(path), file.metadata()) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (path, file);
+        true
+    }
+}
+
+/// Takes the exclusive lock that makes one coordinator the only writer of `path`, which
+/// also says who holds it ([`WriterLock`]).
+fn lock(path: &Path) -> Result<WriterLock, DbError> {
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".lock");
     let lock_path = path.with_file_name(name);
@@ -139,30 +174,34 @@ fn lock(path: &Path) -> Result<std::fs::File, DbError> {
         lock: lock_path.display().to_string(),
         source,
     };
-    let mut file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&lock_path)
-        .map_err(err)?;
-    match file.try_lock() {
-        Ok(()) => {}
-        Err(std::fs::TryLockError::WouldBlock) => {
-            let mut holder = String::new();
-            let _ = std::io::Read::read_to_string(&mut file, &mut holder);
-            let holder = holder.trim();
-            return Err(DbError::Locked {
-                path: path.display().to_string(),
-                holder: if holder.is_empty() {
-                    "holder unknown".into()
-                } else {
-                    holder.to_string()
-                },
-            });
+    let mut file = loop {
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&lock_path)
+            .map_err(err)?;
+        match file.try_lock() {
+            // The holder before may have removed the file between our open and our lock.
+            Ok(()) if names(&lock_path, &file) => break file,
+            Ok(()) => continue,
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let mut holder = String::new();
+                let _ = std::io::Read::read_to_string(&mut file, &mut holder);
+                let holder = holder.trim();
+                return Err(DbError::Locked {
+                    path: path.display().to_string(),
+                    holder: if holder.is_empty() {
+                        "holder unknown".into()
+                    } else {
+                        holder.to_string()
+                    },
+                });
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(err(e)),
         }
-        Err(std::fs::TryLockError::Error(e)) => return Err(err(e)),
-    }
+    };
     let me = format!(
         "pid {} on {}",
         std::process::id(),
@@ -170,7 +209,10 @@ fn lock(path: &Path) -> Result<std::fs::File, DbError> {
     );
     file.set_len(0).map_err(err)?;
     std::io::Write::write_all(&mut file, me.as_bytes()).map_err(err)?;
-    Ok(file)
+    Ok(WriterLock {
+        _file: file,
+        path: lock_path,
+    })
 }
 
 /// A shortfall's place in the order of outcomes, from its stored figure: speed for trials
@@ -266,6 +308,10 @@ impl Db {
                 source: e,
             })?;
         sqlx::migrate!("./migrations").run(&pool).await?;
+        // An experiment stored before its row had a checksum gets one now.
+        let mut tx = pool.begin().await?;
+        seal_experiment(&mut tx).await?;
+        tx.commit().await?;
         Ok(Self { pool, _lock: None })
     }
 
@@ -328,12 +374,28 @@ impl Db {
         Ok(applied >= sqlx::migrate!("./migrations").iter().count() as i64)
     }
 
-    /// The stored experiment, if any.
+    /// The stored experiment, if any, checked against its row's checksum (a row stored
+    /// before checksums has none).
     pub async fn experiment(&self) -> Result<Option<(Experiment, String)>, DbError> {
-        let row = sqlx::query("SELECT definition, build FROM experiment WHERE id = 1")
-            .fetch_optional(&self.pool)
-            .await?;
+        let row = sqlx::query(
+            "SELECT name, definition, build, created_at, checksum FROM experiment WHERE id = 1",
+        )
+        .fetch_optional(&self.pool)
+        .await?;
         row.map(|r| {
+            let col = |name| rows::column::<String>(&r, "experiment", "row 1", name);
+            let stored: Option<i64> = rows::column(&r, "experiment", "row 1", "checksum")?;
+            let sum = checksum::experiment_checksum(
+                &col("name")?,
+                &col("definition")?,
+                &col("build")?,
+                &col("created_at")?,
+            );
+            if stored.is_some_and(|s| s != sum) {
+                return Err(DbError::Corrupt(
+                    "table experiment, row 1: the row does not match its checksum, so its name, definition, build or created_at was changed after it was written".into(),
+                ));
+            }
             let text: String = rows::column(&r, "experiment", "row 1", "definition")?;
             let e = Experiment::from_toml(&text).map_err(|e| {
                 DbError::Corrupt(format!("table experiment, row 1, column definition: {e}"))
@@ -352,6 +414,7 @@ impl Db {
             .bind(build_id())
             .execute(&mut *tx)
             .await?;
+        seal_experiment(&mut tx).await?;
         for (id, run) in e.runs().iter().enumerate() {
             sqlx::query("INSERT INTO runs (id, scheme, repeat, seed, generation, initial_passed, next_candidate) VALUES (?, ?, ?, ?, 0, 0, 0)")
                 .bind(id as i64)
@@ -886,6 +949,31 @@ pub fn damaged_generations(bad: &[(i64, i64)]) -> Option<String> {
         named.join(", "),
         if bad.len() > 5 { ", ..." } else { "" }
     ))
+}
+
+/// Gives the experiment row its checksum if it has none (just stored, or stored before
+/// checksums). A migration that rewrites the row must set its checksum to NULL, so that
+/// the next writer seals the new text.
+async fn seal_experiment(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>) -> Result<(), DbError> {
+    let row = sqlx::query(
+        "SELECT name, definition, build, created_at FROM experiment WHERE id = 1 AND checksum IS NULL",
+    )
+    .fetch_optional(&mut **tx)
+    .await?;
+    if let Some(r) = row {
+        let col = |name| rows::column::<String>(&r, "experiment", "row 1", name);
+        let sum = checksum::experiment_checksum(
+            &col("name")?,
+            &col("definition")?,
+            &col("build")?,
+            &col("created_at")?,
+        );
+        sqlx::query("UPDATE experiment SET checksum = ? WHERE id = 1")
+            .bind(sum)
+            .execute(&mut **tx)
+            .await?;
+    }
+    Ok(())
 }
 
 /// Problems naming damaged candidate rows (the first five, and how many in all).
