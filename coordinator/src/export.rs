@@ -4,12 +4,13 @@
 
 use crate::changes::RunRecord;
 use crate::db::StoredInfeasible;
+use crate::library::Elite;
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;
 use strider_common::genome::ParamVector;
 use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
-use strider_common::{CellIndex, Features, Genome, Outcome, TrialStats};
+use strider_common::{CellIndex, Features, Genome, Outcome, Shortfall, Standing, TrialStats};
 
 /// One elite as exported.
 #[derive(Clone, Debug, PartialEq)]
@@ -255,28 +256,97 @@ impl std::str::FromStr for EliteChoice {
     }
 }
 
-/// Finds the chosen elite among `runs`: `(run id, cell, fitness, genome)`.
-pub fn find(
-    runs: &[RunRecord],
-    choice: EliteChoice,
-) -> Result<(i64, CellIndex, f64, Genome), String> {
+/// An elite found by [`find`]: a feasible one, or the infeasible library's where its
+/// cell holds no feasible design.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Found {
+    pub run: i64,
+    pub cell: CellIndex,
+    pub genome: Genome,
+    /// Its fitness when it meets the brief; otherwise what it misses the brief by.
+    pub standing: FoundStanding,
+}
+
+/// Whether a [`Found`] elite meets the brief.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FoundStanding {
+    /// A feasible elite, 1 / COT.
+    Feasible { fitness: f64 },
+    /// The infeasible library's elite: what keeps it from the brief and how near it came.
+    Infeasible {
+        shortfall: Shortfall,
+        standing: Standing,
+    },
+}
+
+impl std::fmt::Display for Found {
+    /// `run R, cell C: fitness F`, or for an infeasible elite what it misses.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "run {}, cell {}: ", self.run, self.cell.0)?;
+        match self.standing {
+            FoundStanding::Feasible { fitness } => write!(f, "fitness {fitness:.4}"),
+            FoundStanding::Infeasible {
+                shortfall,
+                standing,
+            } => {
+                write!(
+                    f,
+                    "no feasible design; the infeasible library's elite (short of the brief: {}",
+                    shortfall.name()
+                )?;
+                match standing {
+                    Standing::TooSlow { speed } => write!(f, ", {speed:.3} m/s)"),
+                    Standing::EndedEarly { at_time } => write!(f, ", ended at {at_time:.2} s)"),
+                    Standing::NotSimulated | Standing::Feasible { .. } => write!(f, ")"),
+                }
+            }
+        }
+    }
+}
+
+/// Finds the chosen elite among `runs`, whose cells number `cell_count`: for `RUN:CELL`
+/// the cell's feasible elite, or its infeasible one where it has no feasible one.
+pub fn find(runs: &[RunRecord], choice: EliteChoice, cell_count: u32) -> Result<Found, String> {
+    let feasible = |run: i64, cell: CellIndex, e: &Elite| Found {
+        run,
+        cell,
+        genome: e.genome,
+        standing: FoundStanding::Feasible { fitness: e.fitness },
+    };
     match choice {
         EliteChoice::Best => runs
             .iter()
             .flat_map(|r| r.library.elites().map(move |(c, e)| (r.id, c, e)))
             .max_by(|a, b| a.2.fitness.total_cmp(&b.2.fitness))
-            .map(|(run, c, e)| (run, c, e.fitness, e.genome))
+            .map(|(run, c, e)| feasible(run, c, e))
             .ok_or_else(|| "the library is empty".to_string()),
         EliteChoice::At { run, cell } => {
             let r = runs
                 .iter()
                 .find(|r| r.id == run)
                 .ok_or_else(|| format!("the database has no run {run}"))?;
-            r.library
-                .elites()
-                .find(|(c, _)| c.0 == cell)
-                .map(|(c, e)| (run, c, e.fitness, e.genome))
-                .ok_or_else(|| format!("run {run} has no elite in cell {cell}"))
+            if cell >= cell_count {
+                return Err(format!(
+                    "cell {cell} is out of range: cells are numbered 0 to {}",
+                    cell_count - 1
+                ));
+            }
+            let c = CellIndex(cell);
+            if let Some(e) = r.library.get(c) {
+                return Ok(feasible(run, c, e));
+            }
+            r.infeasible
+                .get(c)
+                .map(|e| Found {
+                    run,
+                    cell: c,
+                    genome: e.genome,
+                    standing: FoundStanding::Infeasible {
+                        shortfall: e.shortfall,
+                        standing: e.standing,
+                    },
+                })
+                .ok_or_else(|| format!("run {run} has no design in cell {cell}, feasible or not"))
         }
     }
 }

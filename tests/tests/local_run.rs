@@ -5,7 +5,9 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use strider_coordinator::db::Db;
-use strider_tests::{assert_same_library, binary, export, run, run_ok, temp_dir, workspace_root};
+use strider_tests::{
+    assert_same_library, binary, export, run, run_ok, sqlite, temp_dir, workspace_root,
+};
 
 const TINY: &str = "tests/fixtures/tiny.toml";
 
@@ -46,6 +48,11 @@ fn one_thread_and_two_threads_give_identical_libraries() {
     let (one, two) = (dir.join("one.db"), dir.join("two.db"));
     run_to_end(&one, "1");
     run_to_end(&two, "2");
+    // A run that ended cleanly leaves no lock file beside its database.
+    for db in [&one, &two] {
+        let lock = db.with_extension("db.lock");
+        assert!(!lock.exists(), "{} was left behind", lock.display());
+    }
     let (a, b) = (export(&one), export(&two));
     assert_same_library(&a, &b);
     // Both runs finished all 12 generations and hold elites.
@@ -272,25 +279,90 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
         robot.joints.len()
     );
     assert!(first["base_xyz"][2].as_f64().unwrap() > 0.5, "{first}");
-    // A cell with no elite is refused by name.
-    let out = run(
+    // A cell past the grid is out of range (15,625 cells: 0 to 15,624).
+    let refused = |elite: &str| {
+        let out = run(
+            "strider-coordinator",
+            &[
+                "export",
+                "--db",
+                db.to_str().unwrap(),
+                "--elite",
+                elite,
+                "--urdf",
+                urdf.to_str().unwrap(),
+            ],
+        );
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let err = refused("0:4000000000");
+    assert!(
+        err.contains("cell 4000000000 is out of range: cells are numbered 0 to 15624"),
+        "{err}"
+    );
+    // A cell in range that holds nothing, feasible or not, says so.
+    let held = sqlite(
+        &db,
+        "SELECT cell FROM cells WHERE run_id = 0 UNION SELECT cell FROM infeasible_cells \
+         WHERE run_id = 0",
+    );
+    let held: std::collections::HashSet<u32> = held.lines().map(|c| c.parse().unwrap()).collect();
+    let empty = (0..).find(|c| !held.contains(c)).unwrap();
+    let err = refused(&format!("0:{empty}"));
+    assert!(
+        err.contains(&format!(
+            "run 0 has no design in cell {empty}, feasible or not"
+        )),
+        "{err}"
+    );
+    // A cell that holds only an infeasible design (a near miss): its genome and URDF are
+    // exported, and stderr says it is not feasible and what it misses.
+    let near_miss = sqlite(
+        &db,
+        "SELECT cell, shortfall FROM infeasible_cells WHERE run_id = 0 AND cell NOT IN \
+         (SELECT cell FROM cells WHERE run_id = 0) ORDER BY cell LIMIT 1",
+    );
+    let (cell, shortfall) = near_miss
+        .trim()
+        .split_once('|')
+        .expect("an infeasible-only cell");
+    let choice = format!("0:{cell}");
+    let out = run_ok(
+        "strider-coordinator",
+        &["export", "--db", db.to_str().unwrap(), "--elite", &choice],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!(
+            "run 0, cell {cell}: no feasible design; the infeasible library's elite (short of \
+             the brief: {shortfall}"
+        )),
+        "{err}"
+    );
+    let exported: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let library = export(&db);
+    let stored = library["runs"][0]["infeasible"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["cell"].as_u64() == cell.parse().ok())
+        .expect("the cell is in the infeasible library's export");
+    assert_eq!(exported, stored["genome"]);
+    let near_miss_urdf = dir.join("near-miss.urdf");
+    run_ok(
         "strider-coordinator",
         &[
             "export",
             "--db",
             db.to_str().unwrap(),
             "--elite",
-            "0:4000000000",
+            &choice,
             "--urdf",
-            urdf.to_str().unwrap(),
+            near_miss_urdf.to_str().unwrap(),
         ],
     );
-    assert!(!out.status.success());
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("has no elite in cell 4000000000"),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    urdf_rs::read_file(&near_miss_urdf).expect("the near miss's URDF parses");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

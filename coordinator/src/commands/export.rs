@@ -35,7 +35,8 @@ pub struct ExportArgs {
     /// Output format.
     #[arg(long, value_enum, default_value = "json")]
     format: Format,
-    /// One elite instead of all: RUN:CELL, or `best` (of --run, or of the experiment).
+    /// One elite instead of all: RUN:CELL (the cell's feasible elite, or its infeasible
+    /// one where it has no feasible one), or `best` (of --run, or of the experiment).
     /// Alone, its genome file (JSON, as `strider-worker eval` and `inspect` read it) is
     /// written to standard output (or to --genome FILE); with --urdf, its design as URDF.
     #[arg(long)]
@@ -142,16 +143,16 @@ async fn export_genome(
     choice: EliteChoice,
     to: Option<&Path>,
 ) -> anyhow::Result<()> {
-    let (db, _) = open_existing(path).await?;
+    let (db, experiment) = open_existing(path).await?;
     let runs = selected_runs(&db, only).await?;
-    let (run, cell, fitness, genome) =
-        library_export::find(&runs, choice).map_err(anyhow::Error::msg)?;
+    let found = library_export::find(&runs, choice, experiment.features.cell_count())
+        .map_err(anyhow::Error::msg)?;
     match to {
-        Some(file) => std::fs::write(file, genome.to_json_pretty() + "\n")
+        Some(file) => std::fs::write(file, found.genome.to_json_pretty() + "\n")
             .with_context(|| format!("writing {}", file.display()))?,
-        None => outln!("{}", genome.to_json_pretty()),
+        None => outln!("{}", found.genome.to_json_pretty()),
     }
-    eprintln!("run {run}, cell {}: fitness {fitness:.4}", cell.0);
+    eprintln!("{found}");
     Ok(())
 }
 
@@ -164,14 +165,16 @@ async fn export_urdf(
 ) -> anyhow::Result<()> {
     let (db, experiment) = open_existing(path).await?;
     let runs = selected_runs(&db, only).await?;
-    let (run, cell, fitness, genome) =
-        library_export::find(&runs, choice).map_err(anyhow::Error::msg)?;
-    let plan = BodyPlan::new(&genome.morphology, experiment.brief.payload);
-    let name = format!("{} run {run} cell {}", experiment.name, cell.0);
-    let pose = strider_common::urdf::write_files(&name, &plan, &genome.controller, urdf)?;
+    let found = library_export::find(&runs, choice, experiment.features.cell_count())
+        .map_err(anyhow::Error::msg)?;
+    let plan = BodyPlan::new(&found.genome.morphology, experiment.brief.payload);
+    let name = format!(
+        "{} run {} cell {}",
+        experiment.name, found.run, found.cell.0
+    );
+    let pose = strider_common::urdf::write_files(&name, &plan, &found.genome.controller, urdf)?;
     eprintln!(
-        "run {run}, cell {}: fitness {fitness:.4}, {:.2} kg, {} legs -> {} (start pose: {})",
-        cell.0,
+        "{found}, {:.2} kg, {} legs -> {} (start pose: {})",
         plan.total_mass(),
         plan.legs.len(),
         urdf.display(),
