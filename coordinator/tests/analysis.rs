@@ -173,3 +173,44 @@ fn features_centred_near_zero_or_widely_spread_give_no_rule() {
     assert!(rules.kept.is_empty(), "{:#?}", rules.kept);
     assert_eq!(rules.dropped.len(), 6);
 }
+
+#[test]
+fn a_feature_that_never_varies_is_named_constant_and_in_no_rule() {
+    // Every design has 2 legs a side (as every feasible elite of a search at the paper's
+    // brief does): before, the method kept "legs_per_side = 2 + 0 x ..." as a rule.
+    let designs: Vec<[f64; 6]> = uncorrelated(2000)
+        .into_iter()
+        .map(|mut g| {
+            g[2] = 2.0;
+            g
+        })
+        .collect();
+    let rules = mine_rules(&designs, 0.2).unwrap();
+    assert_eq!(rules.constant, [(2, 2.0)]);
+    for r in rules.kept.iter().chain(&rules.dropped) {
+        assert_ne!(r.target, 2, "{r}");
+        assert!(r.terms.iter().all(|&(j, _)| j != 2), "{r}");
+        assert_eq!(r.terms.len(), 4, "{r}");
+    }
+    assert_eq!(rules.kept.len() + rules.dropped.len(), 5);
+    // The other features give what they gave with it varying: d1 and d2 equal their means.
+    let mut targets: Vec<usize> = rules.kept.iter().map(|r| r.target).collect();
+    targets.sort();
+    assert_eq!(targets, [0, 1], "{:#?}", rules.kept);
+}
+
+#[test]
+fn too_few_designs_give_no_rules() {
+    use strider_coordinator::analysis::rules::{RulesError, MIN_RULE_DESIGNS};
+    let designs = uncorrelated(MIN_RULE_DESIGNS - 1);
+    assert_eq!(
+        mine_rules(&designs, 0.2),
+        Err(RulesError::TooFew(MIN_RULE_DESIGNS - 1))
+    );
+    assert!(mine_rules(&uncorrelated(MIN_RULE_DESIGNS), 0.2).is_ok());
+    // Designs that are all one design: every feature constant, no rule.
+    let same = vec![designs[0]; MIN_RULE_DESIGNS];
+    let rules = mine_rules(&same, 0.2).unwrap();
+    assert!(rules.kept.is_empty() && rules.dropped.is_empty());
+    assert_eq!(rules.constant.len(), 6);
+}

@@ -8,7 +8,7 @@
 //! g_k = mean_k + sum_j a_j (g_j - mean_j), with a_j = -(v_j / v_k)(s_k / s_j), terms in
 //! order of decreasing |v_j|.
 
-use nalgebra::{SMatrix, SVector, SymmetricEigen};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use std::fmt;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
 
@@ -77,6 +77,11 @@ impl fmt::Display for Rule {
     }
 }
 
+/// Fewer designs than this give no rules: a six-feature covariance from a handful of
+/// designs has thin axes by construction (below 7 designs, at least one exactly thin), so a
+/// "rule" from them describes those designs, not a trend.
+pub const MIN_RULE_DESIGNS: usize = 30;
+
 /// The rules found, and those the threshold dropped.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rules {
@@ -84,73 +89,81 @@ pub struct Rules {
     pub kept: Vec<Rule>,
     /// The others, thinnest first.
     pub dropped: Vec<Rule>,
+    /// Features every design holds at one value, with that value: no rule predicts them
+    /// or uses them ("legs_per_side = 2 + 0 x ..." said nothing).
+    pub constant: Vec<(usize, f64)>,
 }
 
 /// Why rules could not be mined.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RulesError {
-    #[error("need at least 2 designs, got {0}")]
+    #[error("need at least {MIN_RULE_DESIGNS} designs, got {0}")]
     TooFew(usize),
-    #[error("feature d{0} is zero in every design, so it has no scale")]
-    ZeroScale(usize),
     #[error("a design holds a feature that is not a finite number")]
     NotFinite,
 }
 
-type Mat = SMatrix<f64, FEATURE_COUNT, FEATURE_COUNT>;
-type Vec6 = SVector<f64, FEATURE_COUNT>;
-
-/// Mines design rules from designs given as six-feature vectors.
+/// Mines design rules from designs given as six-feature vectors (at least
+/// [`MIN_RULE_DESIGNS`]). A feature that does not vary over them is listed as constant and
+/// left out: the rules are the thin axes of the varying features alone.
 pub fn mine_rules(designs: &[[f64; FEATURE_COUNT]], threshold: f64) -> Result<Rules, RulesError> {
     let n = designs.len();
-    if n < 2 {
+    if n < MIN_RULE_DESIGNS {
         return Err(RulesError::TooFew(n));
     }
     if designs.iter().flatten().any(|v| !v.is_finite()) {
         return Err(RulesError::NotFinite);
     }
+    let (varying, constant): (Vec<usize>, Vec<usize>) =
+        (0..FEATURE_COUNT).partition(|&j| designs.iter().any(|g| g[j] != designs[0][j]));
+    let constant = constant.into_iter().map(|j| (j, designs[0][j])).collect();
     let nf = n as f64;
-    let rows: Vec<Vec6> = designs.iter().map(|g| Vec6::from_column_slice(g)).collect();
-    let mean: Vec6 = rows.iter().sum::<Vec6>() / nf;
-    let scale: Vec6 = rows
-        .iter()
-        .map(|g| g.component_mul(g))
-        .sum::<Vec6>()
-        .map(|s| (s / nf).sqrt());
-    if let Some(j) = scale.iter().position(|&s| s == 0.0) {
-        return Err(RulesError::ZeroScale(j + 1));
+    let means: [f64; FEATURE_COUNT] =
+        std::array::from_fn(|j| designs.iter().map(|g| g[j]).sum::<f64>() / nf);
+    if varying.is_empty() {
+        return Ok(Rules {
+            kept: Vec::new(),
+            dropped: Vec::new(),
+            constant,
+        });
     }
-    let mut cov = Mat::zeros();
-    for g in &rows {
-        let z = (g - mean).component_div(&scale);
-        cov += z * z.transpose();
+    // Each varying feature scaled by its root-mean-square (non-zero, as it varies).
+    let scale: Vec<f64> = varying
+        .iter()
+        .map(|&j| (designs.iter().map(|g| g[j] * g[j]).sum::<f64>() / nf).sqrt())
+        .collect();
+    let m = varying.len();
+    let mut cov = DMatrix::<f64>::zeros(m, m);
+    for g in designs {
+        let z = DVector::from_fn(m, |a, _| (g[varying[a]] - means[varying[a]]) / scale[a]);
+        cov += &z * z.transpose();
     }
     cov /= nf;
     let eigen = SymmetricEigen::new(cov);
-    let mut order: Vec<usize> = (0..FEATURE_COUNT).collect();
+    let mut order: Vec<usize> = (0..m).collect();
     order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
     let (mut kept, mut dropped) = (Vec::new(), Vec::new());
     for i in order {
         let v = eigen.eigenvectors.column(i);
         let spread = eigen.eigenvalues[i].max(0.0).sqrt();
-        let k = (0..FEATURE_COUNT)
+        let k = (0..m)
             .max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
-            .expect("six features");
-        let mut others: Vec<usize> = (0..FEATURE_COUNT).filter(|&j| j != k).collect();
+            .expect("a feature varies: the designs are not all one");
+        let mut others: Vec<usize> = (0..m).filter(|&a| a != k).collect();
         others.sort_by(|&a, &b| v[b].abs().total_cmp(&v[a].abs()));
         let mut rule = Rule {
-            target: k,
-            means: mean.into(),
+            target: varying[k],
+            means,
             terms: others
                 .into_iter()
-                .map(|j| (j, -(v[j] / v[k]) * (scale[k] / scale[j])))
+                .map(|a| (varying[a], -(v[a] / v[k]) * (scale[k] / scale[a])))
                 .collect(),
             spread,
             mean_error: 0.0,
         };
         rule.mean_error = designs
             .iter()
-            .map(|g| (g[k] - rule.predict(g)).abs())
+            .map(|g| (g[varying[k]] - rule.predict(g)).abs())
             .sum::<f64>()
             / nf
             / scale[k];
@@ -160,5 +173,9 @@ pub fn mine_rules(designs: &[[f64; FEATURE_COUNT]], threshold: f64) -> Result<Ru
             dropped.push(rule);
         }
     }
-    Ok(Rules { kept, dropped })
+    Ok(Rules {
+        kept,
+        dropped,
+        constant,
+    })
 }

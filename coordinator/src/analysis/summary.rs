@@ -4,7 +4,7 @@
 //! (Table 6). `strider-coordinator analyse` prints it.
 
 use super::mann_whitney::{mann_whitney, MannWhitney};
-use super::rules::{mine_rules, Rules};
+use super::rules::{mine_rules, Rules, MIN_RULE_DESIGNS};
 use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use std::fmt;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
@@ -66,7 +66,7 @@ pub struct SchemeSummary {
     pub best_controller: [f64; CONTROLLER_LEN],
     /// Repeats whose library holds a design (those the mean controller is over).
     pub repeats_with_designs: usize,
-    /// Design rules from the top designs (None with fewer than 2 designs).
+    /// Design rules from the top designs (None with fewer than [`MIN_RULE_DESIGNS`]).
     pub rules: Option<Rules>,
     /// Where the brief binds.
     pub frontier: Frontier,
@@ -324,15 +324,27 @@ impl fmt::Display for Summary {
         )?;
         for s in &self.schemes {
             match &s.rules {
-                None => writeln!(f, "  {}: too few designs", s.scheme)?,
+                None => writeln!(
+                    f,
+                    "  {}: none mined from {} designs (rules need at least {MIN_RULE_DESIGNS})",
+                    s.scheme, s.top_designs
+                )?,
                 Some(r) => {
                     writeln!(
                         f,
-                        "  {}: {} kept, {} dropped by the threshold",
+                        "  {}: from {} designs, {} kept, {} dropped by the threshold",
                         s.scheme,
+                        s.top_designs,
                         r.kept.len(),
                         r.dropped.len()
                     )?;
+                    for &(j, v) in &r.constant {
+                        writeln!(
+                            f,
+                            "    {} = {v} in every design (constant: in no rule)",
+                            FEATURE_NAMES[j]
+                        )?;
+                    }
                     for rule in &r.kept {
                         writeln!(f, "    {rule}")?;
                     }

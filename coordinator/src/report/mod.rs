@@ -9,7 +9,7 @@ pub mod png;
 pub mod svg;
 
 use crate::analysis::mann_whitney::MannWhitney;
-use crate::analysis::rules::Rule;
+use crate::analysis::rules::{Rule, MIN_RULE_DESIGNS};
 use crate::analysis::summary::{mean_sd, summarise, RunResult, Summary};
 use crate::library::{GenerationStats, InfeasibleLibrary, Library};
 use charts::{line_chart, Series, SCHEME_COLOURS};
@@ -258,9 +258,6 @@ fn words(t: &MannWhitney) -> String {
         "not significant at 0.05".into()
     }
 }
-
-/// Below this many designs, the report warns that the rules fitted on them are anecdotes.
-const FEW_DESIGNS: usize = 30;
 
 /// The rule as the paper's Table 6 writes it: target = mean + terms.
 fn formula(r: &Rule) -> String {
@@ -524,7 +521,7 @@ pub fn build(inp: &Inputs<'_>) -> Report {
 
     // 6. Rules.
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[6]);
-    page.push_str("<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others, named as in the maps. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped. <code>design_rules.csv</code> holds each rule as numbers: target = intercept + the sum of coefficient x feature.</p>\n");
+    let _ = writeln!(page, "<p>Linear relations the top 10 % of designs keep (the paper's Table 6): each predicts one feature from the others, named as in the maps. Rules are mined only from at least {MIN_RULE_DESIGNS} designs, and a feature that every one of them shares is named as constant and left out of every rule. A rule is kept when the designs spread across it by at most 0.2 (scaled); the others are listed as dropped. <code>design_rules.csv</code> holds each rule as numbers: target = intercept + the sum of coefficient x feature.</p>");
     let header: Vec<String> = [
         "scheme",
         "designs",
@@ -541,52 +538,57 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     csv_header.extend(FEATURE_NAMES.iter().map(|n| format!("coef_{n}")));
     csv_header.extend(["spread", "mean_error"].map(String::from));
     let (mut rows, mut csv_rows) = (Vec::new(), Vec::new());
-    let mut few = Vec::new();
+    let mut notes = Vec::new();
     for s in &summary.schemes {
-        if let Some(rules) = &s.rules {
-            if s.top_designs < FEW_DESIGNS {
-                few.push(format!("{} ({})", s.scheme.name(), s.top_designs));
-            }
-            for (kept, list) in [("kept", &rules.kept), ("dropped", &rules.dropped)] {
-                for r in list {
-                    rows.push(vec![
-                        text(s.scheme.name()),
-                        count(s.top_designs as u64),
-                        text(kept),
-                        text(formula(r)),
-                        num(r.spread, 3),
-                        num(100.0 * r.mean_error, 2),
-                    ]);
-                    let (intercept, coefficients) = r.linear();
-                    let mut row = vec![
-                        text(s.scheme.name()),
-                        count(s.top_designs as u64),
-                        text(kept),
-                        text(FEATURE_NAMES[r.target]),
-                        Cell::Number(intercept, 4),
-                    ];
-                    row.extend(coefficients.iter().enumerate().map(|(j, &a)| {
-                        if j == r.target {
-                            Cell::Empty
-                        } else {
-                            Cell::Number(a, 4)
-                        }
-                    }));
-                    row.extend([num(r.spread, 3), num(r.mean_error, 4)]);
-                    csv_rows.push(row);
-                }
+        let Some(rules) = &s.rules else {
+            notes.push(format!(
+                "{}: no rules from {} designs (rules need at least {MIN_RULE_DESIGNS}).",
+                s.scheme.name(),
+                s.top_designs
+            ));
+            continue;
+        };
+        for &(j, v) in &rules.constant {
+            notes.push(format!(
+                "{}: {} = {v} in every one of its {} designs (constant: in no rule).",
+                s.scheme.name(),
+                FEATURE_NAMES[j],
+                s.top_designs
+            ));
+        }
+        for (kept, list) in [("kept", &rules.kept), ("dropped", &rules.dropped)] {
+            for r in list {
+                rows.push(vec![
+                    text(s.scheme.name()),
+                    count(s.top_designs as u64),
+                    text(kept),
+                    text(formula(r)),
+                    num(r.spread, 3),
+                    num(100.0 * r.mean_error, 2),
+                ]);
+                let (intercept, coefficients) = r.linear();
+                let mut row = vec![
+                    text(s.scheme.name()),
+                    count(s.top_designs as u64),
+                    text(kept),
+                    text(FEATURE_NAMES[r.target]),
+                    Cell::Number(intercept, 4),
+                ];
+                row.extend(coefficients.iter().enumerate().map(|(j, &a)| {
+                    // The target, and a constant feature, have no coefficient.
+                    if j == r.target || rules.constant.iter().any(|&(c, _)| c == j) {
+                        Cell::Empty
+                    } else {
+                        Cell::Number(a, 4)
+                    }
+                }));
+                row.extend([num(r.spread, 3), num(r.mean_error, 4)]);
+                csv_rows.push(row);
             }
         }
     }
-    if rows.is_empty() {
-        page.push_str("<p>Too few designs to mine rules.</p>\n");
-    }
-    if !few.is_empty() {
-        let _ = writeln!(
-            page,
-            "<p class=\"warning\"><strong>Few designs:</strong> rules fitted on fewer than {FEW_DESIGNS} designs ({}) describe those designs, not a trend: read them as anecdotes.</p>",
-            few.join(", ")
-        );
+    for note in &notes {
+        let _ = writeln!(page, "<p class=\"warning\">{}</p>", escape(note));
     }
     add_table_with_csv(
         &mut page,
