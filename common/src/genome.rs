@@ -232,6 +232,9 @@ impl<'de> Visitor<'de> for VectorVisitor {
                     )))
                 }
             };
+            // Checked here, not only once the map is read, so that a parser that knows
+            // positions (serde_json, toml) names this value's line, not the map's end.
+            self.table[i].check(value).map_err(de::Error::custom)?;
             if values[i].replace(value).is_some() {
                 return Err(de::Error::custom(format!(
                     "{} parameter `{key}` is given twice",
@@ -320,6 +323,36 @@ mod tests {
         serde_json::from_str::<Genome>(json)
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn a_value_out_of_range_is_named_at_its_own_line() {
+        // Before, the range was checked when the whole map had been read, and serde_json
+        // named the map's last line.
+        let text = max_json();
+        let (at, line) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.contains("\"link1_length\""))
+            .expect("MAX has link1_length");
+        let key = line.split(':').next().unwrap();
+        let bad: Vec<String> = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == at {
+                    format!("{key}: 9.5,")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect();
+        let err = parse_err(&bad.join("\n"));
+        assert!(
+            err.contains("`link1_length` = 9.5 is outside its range"),
+            "{err}"
+        );
+        assert!(err.contains(&format!("at line {}", at + 1)), "{err}");
     }
 
     #[test]
