@@ -106,6 +106,16 @@ pub fn duration_words(seconds: f64) -> String {
     }
 }
 
+/// Parses a count of threads or workers on the command line: a whole number of at least 1
+/// (clap's own parser of `NonZeroUsize` says "number would be zero for non-zero type").
+pub fn at_least_one(text: &str) -> Result<std::num::NonZeroUsize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a whole number"))?;
+    std::num::NonZeroUsize::new(n).ok_or_else(|| "must be at least 1".to_string())
+}
+
 /// The number of threads to use by default: every core.
 pub fn default_threads() -> std::num::NonZeroUsize {
     std::thread::available_parallelism().unwrap_or(std::num::NonZeroUsize::MIN)

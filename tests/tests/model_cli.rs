@@ -246,3 +246,31 @@ fn a_log_filter_that_does_not_parse_is_a_usage_error_naming_the_variable() {
     assert!(!db.exists(), "nothing ran");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_count_of_zero_threads_or_workers_says_it_must_be_at_least_one() {
+    // clap's own parser said "number would be zero for non-zero type".
+    for (binary, args) in [
+        ("strider-coordinator", &["run", "--workers", "0"][..]),
+        (
+            "strider-coordinator",
+            &["verify", "--db", "x.db", "--workers", "0"],
+        ),
+        ("strider-worker", &["survey", "--threads", "0"]),
+        ("strider-worker", &["fidelity", "--threads", "0"]),
+        (
+            "strider-worker",
+            &["--connect", "http://127.0.0.1:9", "--threads", "0"],
+        ),
+        ("strider-worker", &["survey", "--threads", "two"]),
+    ] {
+        let out = run(binary, args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{binary} {args:?}: {err}");
+        assert!(
+            err.contains("must be at least 1") || err.contains("`two` is not a whole number"),
+            "{binary} {args:?}: {err}"
+        );
+        assert!(!err.contains("non-zero type"), "{err}");
+    }
+}

@@ -14,7 +14,7 @@ pub struct RunArgs {
     #[arg(long, default_value = "strider.db")]
     db: PathBuf,
     /// Evaluation threads (all cores by default).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_proto::process::at_least_one)]
     workers: Option<NonZeroUsize>,
     /// Seconds between progress lines.
     #[arg(long, default_value_t = 10.0)]

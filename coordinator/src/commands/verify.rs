@@ -22,7 +22,7 @@ pub struct VerifyArgs {
     #[arg(long, default_value_t = 20)]
     sample: usize,
     /// Threads for the simulations (default: every core).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_proto::process::at_least_one)]
     workers: Option<NonZeroUsize>,
 }
 

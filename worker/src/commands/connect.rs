@@ -23,7 +23,7 @@ pub struct ConnectArgs {
     #[arg(long)]
     token_file: Option<PathBuf>,
     /// Trials at once (all cores by default).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_proto::process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Name in the coordinator's logs (host name and process id by default).
     #[arg(long)]

@@ -39,7 +39,7 @@ pub struct FidelityArgs {
     #[arg(long, value_delimiter = ',')]
     stay_up: Vec<f64>,
     /// Threads (all cores by default).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_proto::process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Take settings, brief and features from this experiment file (paper defaults otherwise).
     #[arg(long)]

@@ -22,7 +22,7 @@ pub struct SurveyArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Threads (all cores by default).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_proto::process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Take settings, brief and features from this experiment file (paper defaults otherwise).
     #[arg(long)]
