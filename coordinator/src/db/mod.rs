@@ -383,14 +383,8 @@ impl Db {
         .fetch_optional(&self.pool)
         .await?;
         row.map(|r| {
-            let col = |name| rows::column::<String>(&r, "experiment", "row 1", name);
             let stored: Option<i64> = rows::column(&r, "experiment", "row 1", "checksum")?;
-            let sum = checksum::experiment_checksum(
-                &col("name")?,
-                &col("definition")?,
-                &col("build")?,
-                &col("created_at")?,
-            );
+            let sum = experiment_row_checksum(&r)?;
             if stored.is_some_and(|s| s != sum) {
                 return Err(DbError::Corrupt(
                     "table experiment, row 1: the row does not match its checksum, so its name, definition, build or created_at was changed after it was written".into(),
@@ -951,6 +945,18 @@ pub fn damaged_generations(bad: &[(i64, i64)]) -> Option<String> {
     ))
 }
 
+/// The checksum of a read `experiment` row, from its name, definition, build and
+/// created_at columns.
+fn experiment_row_checksum(r: &sqlx::sqlite::SqliteRow) -> Result<i64, DbError> {
+    let col = |name| rows::column::<String>(r, "experiment", "row 1", name);
+    Ok(checksum::experiment_checksum(
+        &col("name")?,
+        &col("definition")?,
+        &col("build")?,
+        &col("created_at")?,
+    ))
+}
+
 /// Gives the experiment row its checksum if it has none (just stored, or stored before
 /// checksums). A migration that rewrites the row must set its checksum to NULL, so that
 /// the next writer seals the new text.
@@ -961,15 +967,8 @@ async fn seal_experiment(tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>) -> Result
     .fetch_optional(&mut **tx)
     .await?;
     if let Some(r) = row {
-        let col = |name| rows::column::<String>(&r, "experiment", "row 1", name);
-        let sum = checksum::experiment_checksum(
-            &col("name")?,
-            &col("definition")?,
-            &col("build")?,
-            &col("created_at")?,
-        );
         sqlx::query("UPDATE experiment SET checksum = ? WHERE id = 1")
-            .bind(sum)
+            .bind(experiment_row_checksum(&r)?)
             .execute(&mut **tx)
             .await?;
     }
