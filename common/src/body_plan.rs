@@ -1,4 +1,4 @@
-//! The body plan: a genome expanded into a concrete robot (spec sections 1 and 3).
+//! The body plan: a genome expanded into a concrete robot (docs/model.md sections 2-5).
 //!
 //! Frames: the body frame has its origin at the body cuboid's centre, x forward, y up,
 //! z right. Each link's own frame has its origin at its joint, the link running along +z to

@@ -1,4 +1,4 @@
-//! The design brief (spec section 4): the constraints a design must meet to enter the
+//! The design brief (docs/model.md section 11): the constraints a design must meet to enter the
 //! library. Configurable; the defaults are the paper's.
 
 use crate::body_plan::BodyPlan;

@@ -1,6 +1,6 @@
 //! The robot's parts, which pairs of them may touch, and whether they touch in a pose.
 //!
-//! Every part is a cuboid (spec section 3). Parts joined by a hinge (body and hip link, hip
+//! Every part is a cuboid (docs/model.md section 3). Parts joined by a hinge (body and hip link, hip
 //! and upper leg, upper and lower leg) overlap at their joint by construction and never
 //! count; any other pair touching is a self-contact. On the ground only lower legs (link
 //! 2) may rest. The test here is exact for cuboids (the separating-axis theorem), in f64,

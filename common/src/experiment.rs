@@ -53,7 +53,7 @@ impl RunSettings {
     }
 }
 
-/// When a trial ends because the robot fell (spec section 3): `[trial]` in the
+/// When a trial ends because the robot fell (docs/model.md section 6): `[trial]` in the
 /// experiment file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -112,7 +112,7 @@ impl Default for TrialLimits {
     }
 }
 
-/// How a run treats designs that fail the brief (spec section 4).
+/// How a run treats designs that fail the brief (docs/model.md section 11).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ConstraintHandling {

@@ -1,4 +1,4 @@
-//! The six MAP-Elites features and the cell index (spec section 5).
+//! The six MAP-Elites features and the cell index (docs/model.md section 10).
 
 use crate::body_plan::BodyPlan;
 use crate::genome::Morphology;

@@ -1,4 +1,4 @@
-//! The sinusoidal tripod gait (spec section 2): a pure function of time.
+//! The sinusoidal tripod gait (docs/model.md section 7): a pure function of time.
 //!
 //! Target of link `k` on a leg with phase `phi`:
 //! `vo_k + (wmax_k / sf) * sin(sf * t + po_k + phi + ref_k)`.

@@ -105,7 +105,7 @@ macro_rules! param_vector {
 }
 
 param_vector!(
-    /// The robot's body, legs and motors (spec section 1).
+    /// The robot's body, legs and motors (docs/model.md sections 2-5).
     Morphology,
     M,
     MORPHOLOGY_LEN,
@@ -113,7 +113,7 @@ param_vector!(
     "morphology"
 );
 param_vector!(
-    /// The gait controller (spec section 2).
+    /// The gait controller (docs/model.md section 7).
     Controller,
     C,
     CONTROLLER_LEN,

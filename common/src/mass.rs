@@ -1,4 +1,4 @@
-//! The mass model (spec section 3): uniform cuboids, hollow square tubes and point masses,
+//! The mass model (docs/model.md section 8): uniform cuboids, hollow square tubes and point masses,
 //! combined into one rigid part's mass, centre of mass and inertia.
 
 use nalgebra::{Matrix3, Vector3};

@@ -172,7 +172,7 @@ impl std::fmt::Display for Skate {
     }
 }
 
-/// How a robot fell (spec section 3: a robot that falls is not walking).
+/// How a robot fell (docs/model.md section 6: a robot that falls is not walking).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "how", rename_all = "snake_case")]
 pub enum Fall {

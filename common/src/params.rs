@@ -17,7 +17,7 @@ pub enum ParamKind {
 }
 
 /// The mutation group a parameter belongs to; each group has its own per-parameter
-/// mutation probability (spec section 5, the paper's Table 3).
+/// mutation probability (docs/model.md section 12, the paper's Table 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MutationGroup {
@@ -175,7 +175,7 @@ macro_rules! param_table {
 }
 
 param_table! {
-    /// Morphology parameters (spec section 1). Links are numbered from the body: 0 is the hip
+    /// Morphology parameters (docs/model.md sections 2-5). Links are numbered from the body: 0 is the hip
     /// link (coxa), 1 the upper leg (femur), 2 the lower leg (tibia).
     M, MORPHOLOGY_PARAMS {
         BodyHalfX => ("body_half_x", 0.4, 1.0, "m", Real, Body, "body half-length (forward)"),
@@ -225,7 +225,7 @@ param_table! {
 }
 
 param_table! {
-    /// Gait controller parameters (spec section 2).
+    /// Gait controller parameters (docs/model.md section 7).
     C, CONTROLLER_PARAMS {
         StrideFrequency => ("stride_frequency", 1.0, 4.0, "rad/s", Real, Controller, "stride frequency sf of every joint's sinusoid"),
         VerticalOffset0 => ("vertical_offset0", -1.0, 2.0, "rad", Real, Controller, "hip sinusoid centre vo0"),

@@ -1,4 +1,4 @@
-//! Random genomes and mutation (spec section 5).
+//! Random genomes and mutation (docs/model.md section 12).
 //!
 //! Real parameters mutate by a normal step with standard deviation 10 % of their range,
 //! clamped; integers by +-1, clamped. Each morphology parameter mutates with its group's
@@ -141,7 +141,7 @@ impl Controller {
     }
 }
 
-/// How a run's controllers are produced (spec section 2).
+/// How a run's controllers are produced (docs/model.md section 7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Scheme {

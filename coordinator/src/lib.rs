@@ -1,14 +1,10 @@
-//! Strider's coordinator: the MAP-Elites library, how candidates are bred, the scheduler
-//! that leases them to workers, the database, the gRPC service and the analysis.
+//! Strider's coordinator: the quality-diversity core (`qd`: the MAP-Elites library, how
+//! candidates are bred, the scheduler that leases them to workers), the database (`db`),
+//! the gRPC service (`service`), what a user reads (`results`: analysis, report, exports)
+//! and the command lines (`commands`).
 
-pub mod analysis;
-pub mod changes;
 pub mod commands;
 pub mod db;
-pub mod evolution;
-pub mod export;
-pub mod library;
-pub mod report;
-pub mod scheduler;
+pub mod qd;
+pub mod results;
 pub mod service;
-pub mod verify;

@@ -3,8 +3,8 @@
 
 use rand::Rng;
 use strider_common::rng::{CandidateSeed, Purpose};
-use strider_coordinator::analysis::mann_whitney::{erfc, mann_whitney, Method};
-use strider_coordinator::analysis::rules::mine_rules;
+use strider_coordinator::results::analysis::mann_whitney::{erfc, mann_whitney, Method};
+use strider_coordinator::results::analysis::rules::mine_rules;
 
 fn close(a: f64, b: f64, rel: f64) -> bool {
     (a - b).abs() <= rel * b.abs()
@@ -140,7 +140,7 @@ fn a_planted_linear_relation_is_recovered() {
 fn uncorrelated_designs_give_only_feature_equals_mean_rules() {
     let rules = mine_rules(&uncorrelated(2000), 0.2).unwrap();
     // d1 (2.0 to 2.8 m) and d2 (50 to 75 kg) spread little against their RMS, so the
-    // method keeps "feature = its mean" for them (spec section 6); nothing else.
+    // method keeps "feature = its mean" for them (the paper's section 7); nothing else.
     let mut targets: Vec<usize> = rules.kept.iter().map(|r| r.target).collect();
     targets.sort();
     assert_eq!(targets, [0, 1], "{:#?}", rules.kept);
@@ -201,7 +201,7 @@ fn a_feature_that_never_varies_is_named_constant_and_in_no_rule() {
 
 #[test]
 fn too_few_designs_give_no_rules() {
-    use strider_coordinator::analysis::rules::{RulesError, MIN_RULE_DESIGNS};
+    use strider_coordinator::results::analysis::rules::{RulesError, MIN_RULE_DESIGNS};
     let designs = uncorrelated(MIN_RULE_DESIGNS - 1);
     assert_eq!(
         mine_rules(&designs, 0.2),

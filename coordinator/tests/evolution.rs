@@ -5,8 +5,8 @@
 
 use strider_common::rng::{CandidateNumber, CandidateSeed, Purpose};
 use strider_common::{CellIndex, Genome, Scheme, Shortfall, Standing};
-use strider_coordinator::evolution::{Parents, Source};
-use strider_coordinator::library::{Elite, InfeasibleElite, InfeasibleLibrary, Library};
+use strider_coordinator::qd::evolution::{Parents, Source};
+use strider_coordinator::qd::library::{Elite, InfeasibleElite, InfeasibleLibrary, Library};
 
 fn genome(k: u64) -> Genome {
     Genome::random(

@@ -6,8 +6,8 @@ use strider_common::{
     CellIndex, Controller, Features, Genome, InvalidReason, MutationRates, Outcome, Scheme,
     TrialStats,
 };
-use strider_coordinator::evolution::{initial_candidate, offspring, Parents};
-use strider_coordinator::library::{GenerationStats, Library, Placement};
+use strider_coordinator::qd::evolution::{initial_candidate, offspring, Parents};
+use strider_coordinator::qd::library::{GenerationStats, Library, Placement};
 
 fn genome(i: u64) -> Genome {
     initial_candidate(Scheme::Static, CandidateSeed::new(1, i))
@@ -241,7 +241,7 @@ fn genome_scheme_offspring_evolve_their_controller() {
 
 #[test]
 fn every_placement_has_one_stored_name_and_other_text_names_none() {
-    use strider_coordinator::library::InfeasiblePlacement;
+    use strider_coordinator::qd::library::InfeasiblePlacement;
     for p in Placement::ALL {
         assert_eq!(Placement::named(p.name()), Some(p));
     }

@@ -6,9 +6,9 @@ use std::time::{Duration, Instant};
 use strider_common::rng::{CandidateNumber, CandidateSeed};
 use strider_common::EvalContext;
 use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
-use strider_coordinator::changes::{RunRecord, Write};
-use strider_coordinator::library::{InfeasibleLibrary, Library};
-use strider_coordinator::scheduler::{
+use strider_coordinator::qd::changes::{RunRecord, Write};
+use strider_coordinator::qd::library::{InfeasibleLibrary, Library};
+use strider_coordinator::qd::scheduler::{
     fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler, WorkerId,
 };
 use strider_worker::synthetic::instant_outcome;

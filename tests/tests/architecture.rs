@@ -1,7 +1,8 @@
 //! The rules of the layout that a change could quietly break: a coordinator for a cluster's
-//! head node links no physics engine, the command lines stay thin, and the
-//! quality-diversity core (library, breeding, scheduler, the changes it emits) knows
-//! nothing of storage or the network, and no two modules of a crate import each other.
+//! head node links no physics engine, the command lines stay thin, the coordinator's
+//! folders depend one way (the quality-diversity core knows nothing of storage, the
+//! network or the results), no two modules of a crate import each other, no source file
+//! grows past 600 lines, and no reference points outside the repository.
 
 use std::process::Command;
 use strider_tests::workspace_root;
@@ -56,21 +57,6 @@ fn both_main_files_only_parse_and_map_outcomes_to_exit_statuses() {
     for main in ["coordinator/src/main.rs", "worker/src/main.rs"] {
         let lines = source(main).lines().count();
         assert!(lines < 150, "{main} has {lines} lines");
-    }
-}
-
-#[test]
-fn the_quality_diversity_core_imports_nothing_from_storage_or_the_service() {
-    for core in [
-        "coordinator/src/scheduler.rs",
-        "coordinator/src/library.rs",
-        "coordinator/src/evolution.rs",
-        "coordinator/src/changes.rs",
-    ] {
-        let text = source(core);
-        for outside in ["crate::db", "crate::service", "sqlx", "tonic"] {
-            assert!(!text.contains(outside), "{core} uses {outside}");
-        }
     }
 }
 
@@ -182,4 +168,117 @@ fn no_two_modules_import_each_other() {
     }
     // The scan found the imports it is meant to judge (the service uses the scheduler).
     assert!(checked > 20, "only {checked} imports between modules found");
+}
+
+/// The coordinator's folders and what each may not import: the quality-diversity core
+/// (`qd`) is plain data and logic; storage (`db`) writes what the core emits; the
+/// service serves the core and storage; the results read the core's libraries and
+/// storage; only the command lines see everything.
+const FORBIDDEN: &[(&str, &[&str])] = &[
+    ("qd", &["db", "service", "results", "commands"]),
+    ("db", &["service", "results", "commands"]),
+    ("service", &["results", "commands"]),
+    ("results", &["service", "commands"]),
+];
+
+#[test]
+fn the_coordinators_folders_depend_one_way() {
+    let modules = modules("coordinator");
+    let names: Vec<&str> = modules.iter().map(|(m, _)| m.as_str()).collect();
+    let top = |m: &str| m.split("::").next().unwrap_or("").to_string();
+    let mut checked = 0;
+    for (me, code) in &modules {
+        let Some((_, forbidden)) = FORBIDDEN.iter().find(|(folder, _)| top(me) == *folder) else {
+            continue;
+        };
+        for used in uses(me, code, &names) {
+            checked += 1;
+            assert!(
+                !forbidden.contains(&top(&used).as_str()),
+                "coordinator: {me} imports {used}"
+            );
+        }
+        if top(me) == "qd" {
+            for outside in ["sqlx", "tonic", "strider_proto"] {
+                assert!(!code.contains(outside), "coordinator: {me} uses {outside}");
+            }
+        }
+    }
+    // Each folder exists and the scan saw its imports.
+    for (folder, _) in FORBIDDEN {
+        assert!(
+            names.contains(folder),
+            "no module {folder} in the coordinator"
+        );
+    }
+    assert!(checked > 20, "only {checked} imports checked");
+}
+
+/// Every `.rs` file under `dir` (recursively).
+fn rust_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).expect("source directory") {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn no_source_file_is_over_600_lines() {
+    let root = workspace_root();
+    let mut counted = 0;
+    for krate in ["proto", "common", "worker", "coordinator", "tests"] {
+        for file in rust_files(&root.join(krate).join("src")) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            // A file's unit tests (its trailing `#[cfg(test)]` module) are tests, not source.
+            let source = text.split("\n#[cfg(test)]").next().unwrap_or("");
+            let lines = source.lines().count();
+            counted += 1;
+            assert!(
+                lines <= 600,
+                "{} has {lines} lines of source (at most 600)",
+                file.strip_prefix(&root).unwrap().display()
+            );
+        }
+    }
+    assert!(counted > 50, "only {counted} files counted");
+}
+
+#[test]
+fn every_reference_points_into_the_repository() {
+    let root = workspace_root();
+    let mut files: Vec<std::path::PathBuf> = ["proto", "common", "worker", "coordinator", "tests"]
+        .iter()
+        .flat_map(|krate| rust_files(&root.join(krate)))
+        .collect();
+    files.extend(["README.md", "BENCHMARKS.md"].map(|f| root.join(f)));
+    for entry in std::fs::read_dir(root.join("docs")).expect("docs/") {
+        files.push(entry.unwrap().path());
+    }
+    files.push(root.join("proto/strider/v1/strider.proto"));
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap().to_lowercase();
+        // Built from pieces, so this file does not match itself.
+        for gone in [
+            ["spec", " section"].concat(),
+            ["spec", "'s "].concat(),
+            ["spec", ".md"].concat(),
+        ] {
+            assert!(
+                !text.contains(&gone),
+                "{} refers to {gone:?}: a document not in the repository",
+                file.strip_prefix(&root).unwrap().display()
+            );
+        }
+    }
+    assert!(files.len() > 50);
 }

@@ -2,7 +2,7 @@
 //! repeats each): every section, every picture (inline, and as SVG and PNG files), every
 //! table as CSV, and no reference the page cannot resolve.
 
-use strider_coordinator::report::SECTIONS;
+use strider_coordinator::results::report::SECTIONS;
 use strider_tests::{run, run_ok, temp_dir};
 
 const EXPERIMENT: &str = "tests/fixtures/report.toml";

@@ -3,7 +3,7 @@
 
 use super::open::open_existing;
 use super::Exit;
-use crate::analysis::summary::{summarise, RunResult};
+use crate::results::analysis::summary::{summarise, RunResult};
 use anyhow::bail;
 use std::path::PathBuf;
 use strider_proto::out;

@@ -3,7 +3,7 @@
 use super::open::{open_existing, selected_runs};
 use super::Exit;
 use crate::db::EliteFilter;
-use crate::export::{self as library_export, EliteChoice};
+use crate::results::export::{self as library_export, EliteChoice};
 use anyhow::Context;
 use clap::ValueEnum;
 use std::collections::HashMap;

@@ -1,8 +1,8 @@
 //! Opening a database for a command: to run or serve it (created when new, refused when it
 //! holds another experiment or is inconsistent), or to read it (read-only if need be).
 
-use crate::changes::RunRecord;
 use crate::db::{build_id, first_difference, Db};
+use crate::qd::changes::RunRecord;
 use anyhow::{bail, Context};
 use std::path::Path;
 use strider_common::Experiment;

@@ -3,7 +3,7 @@
 
 use super::open::open_existing;
 use super::Exit;
-use crate::report::{png, Inputs, RunData};
+use crate::results::report::{png, Inputs, RunData};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
 use strider_common::Genome;
@@ -58,7 +58,7 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
             .map_or(0, |(id, _)| id)
     });
     let max: Genome = serde_json::from_str(MAX_DESIGN).context("the built-in MAX design")?;
-    let report = crate::report::build(&Inputs {
+    let report = crate::results::report::build(&Inputs {
         experiment: &experiment,
         runs: &runs,
         chosen,

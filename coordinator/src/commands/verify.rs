@@ -4,7 +4,8 @@
 
 use super::open::open_existing;
 use super::Exit;
-use crate::db::{build_id, StoredCandidate};
+use crate::db::build_id;
+use crate::qd::changes::StoredCandidate;
 use std::collections::HashMap;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
@@ -41,7 +42,7 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
     }
     let runs = db.runs().await?;
     let candidates = db.candidates().await?;
-    let mut verdict = crate::verify::replay(&experiment, &runs, &candidates);
+    let mut verdict = crate::qd::verify::replay(&experiment, &runs, &candidates);
     outln!(
         "replayed {} of {} stored candidates over {} runs",
         verdict.replayed,
@@ -73,9 +74,11 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         }
         let stored = db.generations(run.id).await?;
         let replayed = verdict.generations.get(i).map_or(&[][..], |g| &g[..]);
-        verdict.problems.extend(crate::verify::generation_problems(
-            i as u32, &stored, replayed,
-        ));
+        verdict
+            .problems
+            .extend(crate::qd::verify::generation_problems(
+                i as u32, &stored, replayed,
+            ));
     }
     outln!("checked every run's generations table against the replay");
     // The cheap checks a resume makes (each library cell against its candidate row, the

@@ -11,7 +11,7 @@
 
 use super::rows::column;
 use super::DbError;
-use crate::library::GenerationStats;
+use crate::qd::library::GenerationStats;
 use sqlx::sqlite::SqliteRow;
 
 /// The columns of a candidate row the checksum covers, as stored.

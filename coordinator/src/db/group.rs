@@ -7,8 +7,8 @@
 use super::checksum::{pending_checksum, CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::column;
 use super::{standing_figure, Db, DbError};
-use crate::changes::{RunPosition, StepCommit, Write};
-use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::changes::{RunPosition, StepCommit, Write};
+use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::HashMap;
 use strider_common::{InvalidReason, Outcome};
 
@@ -541,7 +541,7 @@ async fn write_step(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::changes::{RunPosition, StepCommit};
+    use crate::qd::changes::{RunPosition, StepCommit};
     use strider_common::rng::CandidateNumber;
 
     fn lost(run: i64, number: u64, generation: u32) -> Write {

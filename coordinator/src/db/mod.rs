@@ -9,7 +9,7 @@ pub(crate) mod rows;
 
 pub use group::PreparedGroup;
 
-use crate::library::{GenerationStats, InfeasibleLibrary, Library};
+use crate::qd::library::{GenerationStats, InfeasibleLibrary, Library};
 use checksum::{GenerationColumns, GENERATION_COLUMNS};
 use sqlx::sqlite::{
     SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
@@ -51,36 +51,11 @@ pub enum DbError {
 
 pub use strider_common::build_id;
 
-use crate::changes::{RunRecord, StoredPending};
+use crate::qd::changes::{RunRecord, StoredCandidate, StoredPending};
 use rows::{
     EliteRow, EliteWithOutcomeRow, InfeasibleRow, InfeasibleWithOutcomeRow, PendingRow, RunRow,
 };
 use std::collections::HashMap;
-
-/// An applied candidate as stored (the `candidates` table).
-#[derive(Clone, Debug, PartialEq)]
-pub struct StoredCandidate {
-    pub run: i64,
-    pub number: CandidateNumber,
-    pub generation: u32,
-    pub genome: Genome,
-    pub outcome: Outcome,
-    /// The columns that repeat the outcome for queries: `kind`, `fitness`, `cell`.
-    pub columns: (String, Option<f64>, Option<i64>),
-}
-
-impl StoredCandidate {
-    /// Whether the columns that repeat the outcome say what the outcome says.
-    pub fn columns_agree(&self) -> bool {
-        let cell = match &self.outcome {
-            Outcome::Valid { cell, .. } => Some(i64::from(cell.0)),
-            _ => None,
-        };
-        self.columns.0 == self.outcome.kind()
-            && self.columns.1.map(f64::to_bits) == self.outcome.fitness().map(f64::to_bits)
-            && self.columns.2 == cell
-    }
-}
 
 /// Which elites a listing wants.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

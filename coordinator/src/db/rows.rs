@@ -3,8 +3,8 @@
 //! that names nothing.
 
 use super::{standing_of, DbError, StoredElite, StoredInfeasible};
-use crate::changes::StoredPending;
-use crate::library::{Elite, InfeasibleElite};
+use crate::qd::changes::StoredPending;
+use crate::qd::library::{Elite, InfeasibleElite};
 use sqlx::sqlite::{Sqlite, SqliteRow};
 use sqlx::Row;
 use std::fmt::Display;

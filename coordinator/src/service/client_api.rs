@@ -86,7 +86,7 @@ pub fn progress(shared: &Shared) -> v1::Progress {
         )
     });
     let generations = settings.generations;
-    let fraction_done = crate::scheduler::fraction_done(&runs, &settings);
+    let fraction_done = crate::qd::scheduler::fraction_done(&runs, &settings);
     v1::Progress {
         experiment: name,
         runs: runs

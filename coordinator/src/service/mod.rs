@@ -1,6 +1,6 @@
 //! The distributed coordinator: the scheduler behind a lock, the database writer, and the
 //! gRPC services (workers, clients, health, reflection) over them. Thin: every rule lives
-//! in [`crate::scheduler`].
+//! in [`crate::qd::scheduler`].
 
 pub mod auth;
 pub mod client_api;
@@ -14,7 +14,7 @@ pub mod server;
 pub mod worker_api;
 pub mod writer;
 
-use crate::scheduler::Scheduler;
+use crate::qd::scheduler::Scheduler;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -148,7 +148,7 @@ impl Shared {
     }
 
     /// Hands changes to the writer, in order, counting them in the backlog.
-    pub fn write(&self, writes: Vec<crate::changes::Write>) {
+    pub fn write(&self, writes: Vec<crate::qd::changes::Write>) {
         if writes.is_empty() {
             return;
         }
@@ -179,10 +179,10 @@ impl Shared {
         })
     }
 
-    /// How much of the experiment is done, 0 to 1 ([`crate::scheduler::fraction_done`]).
+    /// How much of the experiment is done, 0 to 1 ([`crate::qd::scheduler::fraction_done`]).
     pub fn fraction_done(&self) -> f64 {
         self.with(false, |s| {
-            crate::scheduler::fraction_done(&s.progress(), &s.experiment().run)
+            crate::qd::scheduler::fraction_done(&s.progress(), &s.experiment().run)
         })
     }
 

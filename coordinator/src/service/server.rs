@@ -9,7 +9,7 @@ use super::worker_api::WorkerApi;
 use super::writer::{run_writer, WriterMessage};
 use super::{Shared, Throughput};
 use crate::db::{canonical_toml, Db};
-use crate::scheduler::Scheduler;
+use crate::qd::scheduler::Scheduler;
 use std::future::Future;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -67,7 +67,7 @@ impl Default for ServeOptions {
     fn default() -> Self {
         Self {
             lease: Duration::from_secs(60),
-            max_attempts: crate::scheduler::DEFAULT_MAX_ATTEMPTS,
+            max_attempts: crate::qd::scheduler::DEFAULT_MAX_ATTEMPTS,
             progress_every: Some(Duration::from_secs(10)),
             keep_serving: false,
             address_file: None,

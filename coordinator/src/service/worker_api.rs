@@ -3,8 +3,8 @@
 //! releases, and gives every lease back the moment the stream ends.
 
 use super::Shared;
-use crate::changes::Write;
-use crate::scheduler::{Refusal, WorkerId};
+use crate::qd::changes::Write;
+use crate::qd::scheduler::{Refusal, WorkerId};
 use std::collections::HashSet;
 use std::pin::Pin;
 use std::sync::atomic::Ordering;

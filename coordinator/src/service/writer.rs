@@ -9,8 +9,8 @@
 //! run, each waking the writer, SQLite's thread and the kernel beside the simulations).
 
 use super::Backlog;
-use crate::changes::Write;
 use crate::db::{Db, DbError, PreparedGroup};
+use crate::qd::changes::Write;
 use std::sync::Arc;
 use tokio::sync::{mpsc, oneshot};
 

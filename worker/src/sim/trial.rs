@@ -1,4 +1,4 @@
-//! One trial (spec section 3): the robot walks for the trial's duration under its
+//! One trial (docs/model.md section 6): the robot walks for the trial's duration under its
 //! controller; the energy, distance and cost of transport are measured, and the trial stops
 //! early on a self-contact, a fall (tilt, sinking, a part other than a lower leg on the
 //! ground), a non-finite value or a blow-up. After the trial the robot must stay up a

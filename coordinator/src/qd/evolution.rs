@@ -1,10 +1,10 @@
-//! Where a run's candidates come from (spec sections 4 and 5): random genomes in candidate
+//! Where a run's candidates come from (docs/model.md sections 11 and 12): random genomes in candidate
 //! order for the initial population, then offspring of parents drawn from the libraries
 //! (uniformly from the feasible one, by tournament on closeness to the brief from the
 //! infeasible one). Each candidate's draws come from its own stream, so a candidate is a pure
 //! function of (run seed, candidate number, the libraries it was bred from).
 
-use crate::library::{InfeasibleLibrary, Library};
+use crate::qd::library::{InfeasibleLibrary, Library};
 use rand::Rng;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{Genome, MutationRates, Scheme};

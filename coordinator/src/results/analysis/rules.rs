@@ -1,4 +1,4 @@
-//! Design rules (spec section 6, the paper's section 7): linear relations among the six
+//! Design rules (the paper's section 7): linear relations among the six
 //! features of the best designs, from the thin axes of their scaled covariance.
 //!
 //! Scale each feature by its root-mean-square s_j (about zero, as the paper does), take the

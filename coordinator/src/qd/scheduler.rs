@@ -11,9 +11,9 @@
 //! population ends at the candidate that brings its passes to the target. So neither the
 //! number of workers, nor their speed, nor restarts change a run.
 
-use crate::changes::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
-use crate::evolution::{initial_candidate, offspring, Parents};
-use crate::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::changes::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
+use crate::qd::evolution::{initial_candidate, offspring, Parents};
+use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use strider_common::experiment::{ConstraintHandling, RunSettings};

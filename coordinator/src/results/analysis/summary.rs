@@ -1,11 +1,11 @@
-//! The design-assist summary of an experiment (spec section 6) as plain data: final
+//! The design-assist summary of an experiment (the paper's sections 6 and 7) as plain data: final
 //! figures per scheme, Mann-Whitney tests between schemes, the top designs' mean
 //! features (the paper's Table 5), each repeat's best controller, and the design rules
 //! (Table 6). `strider-coordinator analyse` prints it.
 
 use super::mann_whitney::{mann_whitney, MannWhitney};
 use super::rules::{mine_rules, Rules, MIN_RULE_DESIGNS};
-use crate::library::{GenerationStats, InfeasibleLibrary, Library};
+use crate::qd::library::{GenerationStats, InfeasibleLibrary, Library};
 use std::fmt;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES};
 use strider_common::genome::ParamVector;

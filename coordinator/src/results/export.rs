@@ -2,9 +2,9 @@
 //! features, fitness, trial statistics and full genome (CSV or JSON), and how an elite is
 //! named on the command line (`RUN:CELL` or `best`). Plain functions over plain data.
 
-use crate::changes::RunRecord;
 use crate::db::StoredInfeasible;
-use crate::library::Elite;
+use crate::qd::changes::RunRecord;
+use crate::qd::library::Elite;
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;
@@ -103,7 +103,7 @@ pub fn csv_header() -> String {
 /// The per-generation CSV's header: the run, the generation, the candidates it evaluated
 /// (the initial population's draws for generation 0, those refused before simulating
 /// included) and all of the run's so far, then the library's statistics after it
-/// ([`GenerationStats`](crate::library::GenerationStats)).
+/// ([`GenerationStats`](crate::qd::library::GenerationStats)).
 pub const GENERATIONS_CSV_HEADER: &str = "run,scheme,repeat,generation,evaluations,\
 cumulative_evaluations,coverage,\
 feasible_elites,max_fitness,mean_fitness,min_fitness,qd_score,new,improved,discarded,\
@@ -114,7 +114,7 @@ pub fn generations_csv_line(
     run: &RunRecord,
     generation: u32,
     (evaluations, cumulative): (u64, u64),
-    s: &crate::library::GenerationStats,
+    s: &crate::qd::library::GenerationStats,
 ) -> String {
     format!(
         "{},{},{},{generation},{evaluations},{cumulative},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",

@@ -1,9 +1,9 @@
-//! The six-dimensional library as pictures: dimensional stacking (spec section 6:
+//! The six-dimensional library as pictures: dimensional stacking (the paper's section 6:
 //! x = (d1 b + d3) b + d5, y = (d2 b + d4) b + d6, heavier lines every b^2 cells, the
 //! reference design marked) and the fifteen best-per-pair marginal maps.
 
 use super::svg::{colour, colour_bar, document, escape, text, vertical_text, EMPTY};
-use crate::library::{InfeasibleLibrary, Library};
+use crate::qd::library::{InfeasibleLibrary, Library};
 use std::fmt::Write;
 use strider_common::features::{FEATURE_COUNT, FEATURE_NAMES, FEATURE_UNITS};
 use strider_common::{CellIndex, FeatureGrid, Shortfall, Standing};

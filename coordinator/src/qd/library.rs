@@ -1,4 +1,4 @@
-//! The MAP-Elites libraries of one run (spec sections 4 and 5): the feasible library (one
+//! The MAP-Elites libraries of one run (docs/model.md sections 10 and 11): the feasible library (one
 //! elite per cell, ranked by fitness) and, under feasible-infeasible search, the infeasible
 //! library over the same cells (ranked by closeness to the brief, [`Standing`]); a
 //! generation's results applied in candidate order once all are in, and the per-generation

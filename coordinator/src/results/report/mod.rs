@@ -8,10 +8,10 @@ pub mod maps;
 pub mod png;
 pub mod svg;
 
-use crate::analysis::mann_whitney::MannWhitney;
-use crate::analysis::rules::{Rule, MIN_RULE_DESIGNS};
-use crate::analysis::summary::{mean_sd, summarise, RunResult, Summary};
-use crate::library::{GenerationStats, InfeasibleLibrary, Library};
+use crate::qd::library::{GenerationStats, InfeasibleLibrary, Library};
+use crate::results::analysis::mann_whitney::MannWhitney;
+use crate::results::analysis::rules::{Rule, MIN_RULE_DESIGNS};
+use crate::results::analysis::summary::{mean_sd, summarise, RunResult, Summary};
 use charts::{line_chart, Series, SCHEME_COLOURS};
 use maps::{frontier_marginals_svg, frontier_svg, marginals_svg, stacking_svg, Scale};
 use std::fmt::Write;
@@ -703,7 +703,7 @@ fn frontier_section(
         pictures.push(pairs);
     }
     // The infeasible designs nearest the brief, over every run.
-    let mut nearest: Vec<(&RunData, CellIndex, &crate::library::InfeasibleElite)> = inp
+    let mut nearest: Vec<(&RunData, CellIndex, &crate::qd::library::InfeasibleElite)> = inp
         .runs
         .iter()
         .flat_map(|r| r.infeasible.elites().map(move |(c, el)| (r, c, el)))
@@ -758,8 +758,12 @@ fn frontier_section(
 fn chosen_designs<'a>(
     grid: &strider_common::FeatureGrid,
     library: &'a Library,
-) -> Vec<(String, strider_common::CellIndex, &'a crate::library::Elite)> {
-    let mut best_per_bin: Vec<Option<(strider_common::CellIndex, &crate::library::Elite)>> =
+) -> Vec<(
+    String,
+    strider_common::CellIndex,
+    &'a crate::qd::library::Elite,
+)> {
+    let mut best_per_bin: Vec<Option<(strider_common::CellIndex, &crate::qd::library::Elite)>> =
         vec![None; grid.bins as usize];
     for (cell, el) in library.elites() {
         let slot = &mut best_per_bin[grid.bins_of_cell(cell).0[2] as usize];

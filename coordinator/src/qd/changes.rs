@@ -3,7 +3,7 @@
 //! pending candidates of an open step. Plain data; the scheduler and the database both
 //! depend on it, neither on the other.
 
-use crate::library::{
+use crate::qd::library::{
     Elite, GenerationStats, InfeasibleElite, InfeasibleLibrary, InfeasiblePlacement, Library,
     Placement,
 };
@@ -185,4 +185,29 @@ pub struct StoredPending {
     pub attempts: u32,
     /// Its outcome, once done (or failed).
     pub outcome: Option<Outcome>,
+}
+
+/// An applied candidate as stored (the `candidates` table).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredCandidate {
+    pub run: i64,
+    pub number: CandidateNumber,
+    pub generation: u32,
+    pub genome: Genome,
+    pub outcome: Outcome,
+    /// The columns that repeat the outcome for queries: `kind`, `fitness`, `cell`.
+    pub columns: (String, Option<f64>, Option<i64>),
+}
+
+impl StoredCandidate {
+    /// Whether the columns that repeat the outcome say what the outcome says.
+    pub fn columns_agree(&self) -> bool {
+        let cell = match &self.outcome {
+            Outcome::Valid { cell, .. } => Some(i64::from(cell.0)),
+            _ => None,
+        };
+        self.columns.0 == self.outcome.kind()
+            && self.columns.1.map(f64::to_bits) == self.outcome.fitness().map(f64::to_bits)
+            && self.columns.2 == cell
+    }
 }

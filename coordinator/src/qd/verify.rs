@@ -8,10 +8,9 @@
 //! stored outcomes are what the physics gives is the other half (re-simulating a sample,
 //! done by the command line, which owns the simulator). Plain functions over plain data.
 
-use crate::changes::{RunRecord, Write};
-use crate::db::StoredCandidate;
-use crate::library::GenerationStats;
-use crate::scheduler::{Scheduler, WorkerId};
+use crate::qd::changes::{RunRecord, StoredCandidate, Write};
+use crate::qd::library::GenerationStats;
+use crate::qd::scheduler::{Scheduler, WorkerId};
 use std::collections::HashMap;
 use std::collections::HashSet;
 use std::time::{Duration, Instant};

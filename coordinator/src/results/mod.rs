@@ -1,0 +1,6 @@
+//! What a finished or running experiment gives a user: the design-assist analysis, the
+//! report built from it, and the exports (CSV, JSON, genome files).
+
+pub mod analysis;
+pub mod export;
+pub mod report;
