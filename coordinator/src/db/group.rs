@@ -4,8 +4,8 @@
 //! SQLite commits this one (the two used to run one after the other, and the writer was
 //! the service's bottleneck).
 
-use super::checksum::{pending_checksum, CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
-use super::rows::column;
+use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
+use super::rows::{column, PendingRow};
 use super::{standing_figure, Db, DbError};
 use crate::qd::changes::{RunPosition, StepCommit, Write};
 use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
@@ -28,22 +28,11 @@ enum Item {
     Worker(Write),
 }
 
-struct PendingRow {
-    run: i64,
-    number: i64,
-    generation: i64,
-    status: &'static str,
-    attempts: i64,
-    worker: Option<i64>,
-    outcome: Option<String>,
-    seconds: Option<f64>,
-}
-
 struct StepRows {
     run: i64,
     candidates: Vec<CandidateRow>,
-    elites: Vec<EliteRow>,
-    infeasible: Vec<InfeasibleRow>,
+    elites: Vec<CellRow>,
+    infeasible: Vec<InfeasibleCellRow>,
     completed: Option<(u32, GenerationStats)>,
     position: RunPosition,
     initial_population_done: bool,
@@ -84,16 +73,16 @@ impl CandidateRow {
     }
 }
 
-/// An infeasible cell's new holder.
-struct InfeasibleRow {
+/// An `infeasible_cells` row: an infeasible cell's new holder.
+struct InfeasibleCellRow {
     cell: i64,
     candidate: i64,
     shortfall: &'static str,
     standing: f64,
 }
 
-/// A cell's new holder (the genome is in its candidate row).
-struct EliteRow {
+/// A `cells` row: a cell's new holder (the genome is in its candidate row).
+struct CellRow {
     cell: i64,
     candidate: i64,
     fitness: f64,
@@ -123,14 +112,15 @@ fn pending_row(w: &Write) -> Option<PendingRow> {
                 }
             );
             Some(PendingRow {
-                run: *run,
+                run_id: *run,
                 number: number.0 as i64,
                 generation: i64::from(*generation),
-                status: if failed { "failed" } else { "done" },
+                status: if failed { "failed" } else { "done" }.to_string(),
                 attempts: i64::from(*attempts),
                 worker: worker.map(|w| w as i64),
                 outcome: Some(json(outcome)),
                 seconds: Some(*seconds),
+                checksum: None,
             })
         }
         Write::LeaseLost {
@@ -140,14 +130,15 @@ fn pending_row(w: &Write) -> Option<PendingRow> {
             attempts,
             worker,
         } => Some(PendingRow {
-            run: *run,
+            run_id: *run,
             number: number.0 as i64,
             generation: i64::from(*generation),
-            status: "waiting",
+            status: "waiting".to_string(),
             attempts: i64::from(*attempts),
             worker: Some(*worker as i64),
             outcome: None,
             seconds: None,
+            checksum: None,
         }),
         _ => None,
     }
@@ -190,7 +181,7 @@ fn step_rows(step: &StepCommit) -> StepRows {
         infeasible: step
             .infeasible
             .iter()
-            .map(|(cell, e)| InfeasibleRow {
+            .map(|(cell, e)| InfeasibleCellRow {
                 cell: i64::from(cell.0),
                 candidate: e.candidate.0 as i64,
                 shortfall: e.shortfall.name(),
@@ -201,7 +192,7 @@ fn step_rows(step: &StepCommit) -> StepRows {
         elites: step
             .elites
             .iter()
-            .map(|(cell, elite)| EliteRow {
+            .map(|(cell, elite)| CellRow {
                 cell: i64::from(cell.0),
                 candidate: elite.candidate.0 as i64,
                 fitness: elite.fitness,
@@ -312,24 +303,15 @@ async fn write_pending_rows(
         "INSERT INTO pending (run_id, number, generation, status, attempts, worker, outcome, seconds, checksum) ",
     );
     q.push_values(rows, |mut b, r| {
-        b.push_bind(r.run)
+        b.push_bind(r.run_id)
             .push_bind(r.number)
             .push_bind(r.generation)
-            .push_bind(r.status)
+            .push_bind(r.status.as_str())
             .push_bind(r.attempts)
             .push_bind(r.worker)
             .push_bind(r.outcome.as_deref())
             .push_bind(r.seconds)
-            .push_bind(pending_checksum(
-                r.run,
-                r.number,
-                r.generation,
-                r.status,
-                r.attempts,
-                r.worker,
-                r.outcome.as_deref(),
-                r.seconds,
-            ));
+            .push_bind(r.computed_checksum());
     });
     q.push(
         " ON CONFLICT (run_id, number) DO UPDATE SET generation = excluded.generation, \

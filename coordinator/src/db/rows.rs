@@ -151,7 +151,7 @@ pub(super) fn shortfall(name: &str) -> Result<Shortfall, String> {
     Shortfall::named(name).ok_or_else(|| format!("unknown shortfall `{name}`"))
 }
 
-/// A `pending` row, every column (the checksum covers them all).
+/// A `pending` row, every column (the checksum covers them all), as written and as read.
 #[derive(sqlx::FromRow)]
 pub(super) struct PendingRow {
     pub run_id: i64,
@@ -163,6 +163,22 @@ pub(super) struct PendingRow {
     pub outcome: Option<String>,
     pub seconds: Option<f64>,
     pub checksum: Option<i64>,
+}
+
+impl PendingRow {
+    /// The checksum of its columns, as the writer stores it and the reader checks it.
+    pub fn computed_checksum(&self) -> i64 {
+        super::checksum::pending_checksum(
+            self.run_id,
+            self.number,
+            self.generation,
+            &self.status,
+            self.attempts,
+            self.worker,
+            self.outcome.as_deref(),
+            self.seconds,
+        )
+    }
 }
 
 impl TryFrom<PendingRow> for StoredPending {

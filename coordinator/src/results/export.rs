@@ -14,7 +14,7 @@ use strider_common::{CellIndex, Features, Genome, Outcome, Shortfall, Standing, 
 
 /// One elite as exported.
 #[derive(Clone, Debug, PartialEq)]
-pub struct EliteRow {
+pub struct ExportedElite {
     pub run: i64,
     /// The run's scheme name.
     pub scheme: String,
@@ -33,10 +33,10 @@ pub struct EliteRow {
 
 /// The rows of `run`'s library in cell order; `outcomes` maps a cell to its elite's
 /// outcome (as stored with the candidate).
-pub fn rows(run: &RunRecord, outcomes: &HashMap<CellIndex, Outcome>) -> Vec<EliteRow> {
+pub fn rows(run: &RunRecord, outcomes: &HashMap<CellIndex, Outcome>) -> Vec<ExportedElite> {
     run.library
         .elites()
-        .map(|(cell, e)| EliteRow {
+        .map(|(cell, e)| ExportedElite {
             run: run.id,
             scheme: run.spec.scheme.name().to_string(),
             repeat: run.spec.repeat,
@@ -140,7 +140,7 @@ pub fn generations_csv_line(
 }
 
 /// One CSV line (features and statistics empty when the outcome is missing).
-pub fn csv_line(r: &EliteRow) -> String {
+pub fn csv_line(r: &ExportedElite) -> String {
     let mut line = format!(
         "{},{},{},{},{},{}",
         r.run, r.scheme, r.repeat, r.cell.0, r.candidate, r.fitness
@@ -175,7 +175,7 @@ pub fn csv_line(r: &EliteRow) -> String {
 }
 
 /// One elite as a JSON object.
-pub fn json(r: &EliteRow) -> serde_json::Value {
+pub fn json(r: &ExportedElite) -> serde_json::Value {
     let (features, stats) = match &r.measured {
         Some((f, s)) => (
             serde_json::Value::Object(
@@ -377,7 +377,7 @@ mod tests {
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"),
         )
         .unwrap();
-        let row = EliteRow {
+        let row = ExportedElite {
             run: 0,
             scheme: "static".into(),
             repeat: 0,

@@ -1,0 +1,129 @@
+//! The experiment a database holds: storing it once, sealed by its checksum, reading it
+//! back, and saying where another experiment file differs from it.
+
+use super::*;
+
+/// The experiment as canonical TOML (what the database stores and compares).
+pub fn canonical_toml(e: &Experiment) -> String {
+    toml::to_string(e).expect("experiments serialise")
+}
+
+/// The first setting in which two experiments differ, as `path: stored vs given`.
+pub fn first_difference(stored: &Experiment, given: &Experiment) -> Option<String> {
+    let a: toml::Value = toml::from_str(&canonical_toml(stored)).expect("canonical TOML parses");
+    let b: toml::Value = toml::from_str(&canonical_toml(given)).expect("canonical TOML parses");
+    diff(&a, &b, String::new())
+}
+
+fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
+    match (a, b) {
+        (toml::Value::Table(ta), toml::Value::Table(tb)) => {
+            let mut keys: Vec<&String> = ta.keys().chain(tb.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|k| {
+                let p = if path.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{path}.{k}")
+                };
+                match (ta.get(k), tb.get(k)) {
+                    (Some(x), Some(y)) => diff(x, y, p),
+                    (x, y) => Some(format!(
+                        "{p}: {} in the database, {} given",
+                        show(x),
+                        show(y)
+                    )),
+                }
+            })
+        }
+        _ if a == b => None,
+        _ => Some(format!("{path}: {a} in the database, {b} given")),
+    }
+}
+
+fn show(v: Option<&toml::Value>) -> String {
+    v.map_or_else(|| "absent".into(), |v| v.to_string())
+}
+
+/// The checksum of a read `experiment` row, from its name, definition, build and
+/// created_at columns.
+pub(super) fn experiment_row_checksum(r: &sqlx::sqlite::SqliteRow) -> Result<i64, DbError> {
+    let col = |name| rows::column::<String>(r, "experiment", "row 1", name);
+    Ok(checksum::experiment_checksum(
+        &col("name")?,
+        &col("definition")?,
+        &col("build")?,
+        &col("created_at")?,
+    ))
+}
+
+/// Gives the experiment row its checksum if it has none (just stored, or stored before
+/// checksums). A migration that rewrites the row must set its checksum to NULL, so that
+/// the next writer seals the new text.
+pub(super) async fn seal_experiment(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+) -> Result<(), DbError> {
+    let row = sqlx::query(
+        "SELECT name, definition, build, created_at FROM experiment WHERE id = 1 AND checksum IS NULL",
+    )
+    .fetch_optional(&mut **tx)
+    .await?;
+    if let Some(r) = row {
+        sqlx::query("UPDATE experiment SET checksum = ? WHERE id = 1")
+            .bind(experiment_row_checksum(&r)?)
+            .execute(&mut **tx)
+            .await?;
+    }
+    Ok(())
+}
+
+impl Db {
+    /// The stored experiment, if any, checked against its row's checksum (a row stored
+    /// before checksums has none).
+    pub async fn experiment(&self) -> Result<Option<(Experiment, String)>, DbError> {
+        let row = sqlx::query(
+            "SELECT name, definition, build, created_at, checksum FROM experiment WHERE id = 1",
+        )
+        .fetch_optional(&self.pool)
+        .await?;
+        row.map(|r| {
+            let stored: Option<i64> = rows::column(&r, "experiment", "row 1", "checksum")?;
+            let sum = experiment_row_checksum(&r)?;
+            if stored.is_some_and(|s| s != sum) {
+                return Err(DbError::Corrupt(
+                    "table experiment, row 1: the row does not match its checksum, so its name, definition, build or created_at was changed after it was written".into(),
+                ));
+            }
+            let text: String = rows::column(&r, "experiment", "row 1", "definition")?;
+            let e = Experiment::from_toml(&text).map_err(|e| {
+                DbError::Corrupt(format!("table experiment, row 1, column definition: {e}"))
+            })?;
+            Ok((e, rows::column(&r, "experiment", "row 1", "build")?))
+        })
+        .transpose()
+    }
+
+    /// Stores a new experiment and its runs.
+    pub async fn create_experiment(&self, e: &Experiment) -> Result<(), DbError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("INSERT INTO experiment (id, name, definition, build, created_at) VALUES (1, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%SZ', 'now'))")
+            .bind(&e.name)
+            .bind(canonical_toml(e))
+            .bind(build_id())
+            .execute(&mut *tx)
+            .await?;
+        seal_experiment(&mut tx).await?;
+        for (id, run) in e.runs().iter().enumerate() {
+            sqlx::query("INSERT INTO runs (id, scheme, repeat, seed, generation, initial_passed, next_candidate) VALUES (?, ?, ?, ?, 0, 0, 0)")
+                .bind(id as i64)
+                .bind(run.scheme.name())
+                .bind(i64::from(run.repeat))
+                .bind(run.seed.0 as i64)
+                .execute(&mut *tx)
+                .await?;
+        }
+        tx.commit().await?;
+        Ok(())
+    }
+}
