@@ -7,7 +7,7 @@
 use clap::Parser;
 use std::process::ExitCode;
 use strider_coordinator::commands::{execute, Cli, Exit};
-use strider_proto::process::{closed_pipe, report, EXIT_FAILURE};
+use strider_process::{closed_pipe, report, EXIT_FAILURE};
 
 /// `serve`'s exit status when it stopped for `--stop-leasing-after` before the experiment
 /// finished (EX_TEMPFAIL: serve again on the same database to go on).

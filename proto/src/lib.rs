@@ -16,6 +16,4 @@ pub const FILE_DESCRIPTOR_SET: &[u8] =
 pub const PROTOCOL_VERSION: u32 = 1;
 
 pub mod convert;
-pub mod process;
 pub mod secret;
-pub mod terminal;

@@ -13,7 +13,7 @@ use strider_common::precheck::precheck;
 use strider_common::rng::{CandidateNumber, CandidateSeed, RunSeed};
 use strider_common::EvalContext;
 use strider_common::{Experiment, Genome, Scheme};
-use strider_proto::process::default_threads;
+use strider_process::default_threads;
 use strider_worker::batch::{evaluate_batch, Job};
 
 #[tokio::main(flavor = "current_thread")]

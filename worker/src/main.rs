@@ -6,7 +6,7 @@
 
 use clap::Parser;
 use std::process::ExitCode;
-use strider_proto::process::{closed_pipe, report};
+use strider_process::{closed_pipe, report};
 use strider_worker::client::WorkerError;
 use strider_worker::commands::{execute, Cli};
 

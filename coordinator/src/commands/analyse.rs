@@ -6,7 +6,7 @@ use super::Exit;
 use crate::results::analysis::summary::{summarise, RunResult};
 use anyhow::bail;
 use std::path::PathBuf;
-use strider_proto::out;
+use strider_process::out;
 
 /// Arguments of `analyse`.
 #[derive(clap::Args)]

@@ -5,8 +5,8 @@ use super::Exit;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use strider_common::Experiment;
-use strider_proto::outln;
-use strider_proto::process::default_threads;
+use strider_process::default_threads;
+use strider_process::outln;
 
 /// Arguments of `check`.
 #[derive(clap::Args)]

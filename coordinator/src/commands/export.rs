@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use strider_common::{BodyPlan, CellIndex, Outcome};
-use strider_proto::outln;
+use strider_process::outln;
 
 /// What `export` writes.
 #[derive(Clone, Copy, ValueEnum)]

@@ -14,7 +14,7 @@ pub mod verify;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use std::time::Duration;
-use strider_proto::process::{default_threads, UsageError};
+use strider_process::{default_threads, UsageError};
 
 /// `strider-coordinator`'s arguments.
 #[derive(Parser)]
@@ -95,7 +95,7 @@ fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 }
 
 fn init_logs() -> anyhow::Result<()> {
-    strider_proto::process::init_logs().map_err(|e| UsageError(e).into())
+    strider_process::init_logs().map_err(|e| UsageError(e).into())
 }
 
 /// A positive number of seconds given as `--name`.

@@ -14,7 +14,7 @@ pub struct RunArgs {
     #[arg(long, default_value = "strider.db")]
     db: PathBuf,
     /// Evaluation threads (all cores by default).
-    #[arg(long, value_parser = strider_proto::process::at_least_one)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     workers: Option<NonZeroUsize>,
     /// Seconds between progress lines.
     #[arg(long, default_value_t = 10.0)]
@@ -27,7 +27,7 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
     use crate::service::local::run_local;
     use crate::service::server::Ended;
     use anyhow::Context;
-    use strider_proto::process::{default_threads, stop_signal};
+    use strider_process::{default_threads, stop_signal};
 
     super::init_logs()?;
     let every = super::seconds("progress-every", args.progress_every)?;

@@ -6,7 +6,7 @@ use crate::service::server::{serve, Backup, Ended, ServeOptions};
 use anyhow::Context;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use strider_proto::process::{stop_signal, UsageError};
+use strider_process::{stop_signal, UsageError};
 use strider_proto::secret::Secret;
 
 /// Arguments of `serve`.

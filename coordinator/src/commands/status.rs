@@ -4,7 +4,7 @@ use super::Exit;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Duration;
-use strider_proto::outln;
+use strider_process::outln;
 use strider_proto::secret::{client_interceptor, Secret};
 use strider_proto::v1::client_service_client::ClientServiceClient;
 
@@ -68,7 +68,7 @@ pub async fn execute(args: StatusArgs) -> anyhow::Result<Exit> {
         p.trials_per_second,
         100.0 * p.fraction_done,
         match p.eta_seconds {
-            Some(s) => format!(", about {} left", strider_proto::process::duration_words(s)),
+            Some(s) => format!(", about {} left", strider_process::duration_words(s)),
             None => String::new(),
         }
     );

@@ -11,7 +11,7 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use strider_common::experiment::RunSpec;
 use strider_common::{Experiment, Outcome};
-use strider_proto::outln;
+use strider_process::outln;
 
 /// Arguments of `verify`.
 #[derive(clap::Args)]
@@ -23,7 +23,7 @@ pub struct VerifyArgs {
     #[arg(long, default_value_t = 20)]
     sample: usize,
     /// Threads for the simulations (default: every core).
-    #[arg(long, value_parser = strider_proto::process::at_least_one)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     workers: Option<NonZeroUsize>,
 }
 
@@ -217,7 +217,7 @@ async fn simulate_again(
         })
         .collect();
     let ctx = EvalContext::of(experiment);
-    let threads = workers.unwrap_or_else(strider_proto::process::default_threads);
+    let threads = workers.unwrap_or_else(strider_process::default_threads);
     let outcomes = tokio::task::spawn_blocking(move || evaluate_batch(&ctx, &jobs, threads))
         .await
         .context("simulating the sample")?;

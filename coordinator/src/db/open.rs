@@ -82,7 +82,7 @@ fn lock(path: &Path) -> Result<WriterLock, DbError> {
     let me = format!(
         "pid {} on {}",
         std::process::id(),
-        strider_proto::process::host_name()
+        strider_process::host_name()
     );
     file.set_len(0).map_err(err)?;
     std::io::Write::write_all(&mut file, me.as_bytes()).map_err(err)?;

@@ -17,9 +17,9 @@ use std::sync::atomic::{AtomicU32, AtomicU64};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strider_common::Experiment;
-use strider_proto::process::duration_words;
+use strider_process::duration_words;
+use strider_process::terminal::Bar;
 use strider_proto::secret::Secret;
-use strider_proto::terminal::Bar;
 use strider_proto::v1;
 use strider_proto::v1::client_service_server::ClientServiceServer;
 use strider_proto::v1::worker_service_server::WorkerServiceServer;
@@ -82,11 +82,7 @@ impl Default for ServeOptions {
 /// The URL a worker on another machine uses to reach `addr`.
 pub fn worker_url(addr: SocketAddr) -> String {
     if addr.ip().is_unspecified() {
-        format!(
-            "http://{}:{}",
-            strider_proto::process::host_name(),
-            addr.port()
-        )
+        format!("http://{}:{}", strider_process::host_name(), addr.port())
     } else {
         format!("http://{addr}")
     }
@@ -288,7 +284,7 @@ pub async fn serve(
         },
     }
     if shared.with(false, |s| s.finished()) {
-        strider_proto::note!("{}", progress_line(&shared));
+        strider_process::note!("{}", progress_line(&shared));
         ended = Ended::Finished;
     }
     // Sessions whose workers had not left by now end with the coordinator.
@@ -402,7 +398,7 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
             every.tick().await;
             loop {
                 every.tick().await;
-                strider_proto::note!("{}", progress_line(&shared));
+                strider_process::note!("{}", progress_line(&shared));
             }
         }));
     }

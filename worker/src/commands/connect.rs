@@ -4,7 +4,7 @@ use crate::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use anyhow::Context;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
-use strider_proto::process::{default_threads, host_name, stop_signal, UsageError};
+use strider_process::{default_threads, host_name, stop_signal, UsageError};
 use strider_proto::secret::{Secret, SecretError};
 
 /// Working for a coordinator.
@@ -23,7 +23,7 @@ pub struct ConnectArgs {
     #[arg(long)]
     token_file: Option<PathBuf>,
     /// Trials at once (all cores by default).
-    #[arg(long, value_parser = strider_proto::process::at_least_one)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Name in the coordinator's logs (host name and process id by default).
     #[arg(long)]
@@ -57,7 +57,7 @@ pub fn execute(args: ConnectArgs) -> anyhow::Result<()> {
         )
         .into()),
     };
-    strider_proto::process::init_logs().map_err(UsageError)?;
+    strider_process::init_logs().map_err(UsageError)?;
     if !(args.drain_seconds.is_finite() && args.drain_seconds >= 0.0) {
         return Err(UsageError(format!(
             "--drain-seconds: {} is not a number of seconds",

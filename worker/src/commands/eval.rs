@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use strider_common::drawing::{design_svg, filmstrip_svg, replay_svg};
 use strider_common::rng::CandidateSeed;
 use strider_common::{BodyPlan, Controller, EvalContext, Genome, Outcome, Scheme, StartPose};
-use strider_proto::outln;
+use strider_process::outln;
 
 /// Arguments of `eval`.
 #[derive(clap::Args)]

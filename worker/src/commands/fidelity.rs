@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use strider_common::precheck::check_before_trial;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Genome, Scheme, StartPose};
-use strider_proto::process::default_threads;
+use strider_process::default_threads;
 
 /// Arguments of `fidelity`.
 #[derive(clap::Args)]
@@ -39,7 +39,7 @@ pub struct FidelityArgs {
     #[arg(long, value_delimiter = ',')]
     stay_up: Vec<f64>,
     /// Threads (all cores by default).
-    #[arg(long, value_parser = strider_proto::process::at_least_one)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Take settings, brief and features from this experiment file (paper defaults otherwise).
     #[arg(long)]

@@ -14,7 +14,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use std::path::Path;
 use strider_common::{EvalContext, Experiment};
-use strider_proto::{out, outln};
+use strider_process::{out, outln};
 
 /// `strider-worker`'s arguments.
 #[derive(Parser)]

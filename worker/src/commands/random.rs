@@ -2,7 +2,7 @@
 
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{Genome, Scheme};
-use strider_proto::outln;
+use strider_process::outln;
 
 /// Arguments of `random`.
 #[derive(clap::Args)]

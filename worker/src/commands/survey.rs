@@ -6,8 +6,8 @@ use anyhow::Context;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use strider_common::Scheme;
-use strider_proto::process::default_threads;
-use strider_proto::terminal::Bar;
+use strider_process::default_threads;
+use strider_process::terminal::Bar;
 
 /// Arguments of `survey`.
 #[derive(clap::Args)]
@@ -22,7 +22,7 @@ pub struct SurveyArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Threads (all cores by default).
-    #[arg(long, value_parser = strider_proto::process::at_least_one)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
     /// Take settings, brief and features from this experiment file (paper defaults otherwise).
     #[arg(long)]
@@ -61,7 +61,7 @@ pub fn execute(args: SurveyArgs) -> anyhow::Result<()> {
             if done > 0 {
                 bar.set_message(format!(
                     "{rate:.0}/s, about {} left",
-                    strider_proto::process::duration_words((count - done) as f64 / rate.max(1e-9))
+                    strider_process::duration_words((count - done) as f64 / rate.max(1e-9))
                 ));
             }
             return;
@@ -78,7 +78,7 @@ pub fn execute(args: SurveyArgs) -> anyhow::Result<()> {
         eprintln!(
             "survey: {done} of {count} designs ({:.0} %), {rate:.0}/s, about {} left",
             100.0 * done as f64 / count as f64,
-            strider_proto::process::duration_words((count - done) as f64 / rate.max(1e-9))
+            strider_process::duration_words((count - done) as f64 / rate.max(1e-9))
         );
     };
     let survey = Survey::run(&ctx, scheme, seed, count, threads, &progress);

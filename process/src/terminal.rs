@@ -2,7 +2,7 @@
 //!
 //! On a terminal a long command (`run`, `serve`, `survey`) draws one bar on stderr with its
 //! rate and the time left; the log lines print above it (the log writer of
-//! [`crate::process::init_logs`] hides the bar while it writes). When stderr is a file, a
+//! [`crate::init_logs`] hides the bar while it writes). When stderr is a file, a
 //! pipe or a batch job's log, there is no bar and the command prints its periodic lines
 //! instead, which read well in a log. `STRIDER_PROGRESS=lines` asks for the lines on a
 //! terminal too (for a screen recording, or a terminal that draws bars badly).

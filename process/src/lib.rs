@@ -1,5 +1,9 @@
 //! Process plumbing both binaries share: the log setup, the exit status of an error, a
-//! reader that closed the pipe, and how many threads to use.
+//! reader that closed the pipe, how many threads to use, the stop signal, the host name,
+//! and the terminal's progress bar (`terminal`). Nothing of the wire contract
+//! (`strider-proto`) or the model (`strider-common`).
+
+pub mod terminal;
 
 /// A command line that cannot run as given (a flag out of range, a bad log filter): exits
 /// 2, as clap's own usage errors do. Every other error (a file that does not load, a
@@ -87,7 +91,7 @@ pub fn init_logs() -> Result<(), String> {
         && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(crate::terminal::LogWriter)
+        .with_writer(terminal::LogWriter)
         .with_ansi(colour)
         .try_init();
     Ok(())
