@@ -42,6 +42,20 @@ impl Default for RunSettings {
 }
 
 impl RunSettings {
+    /// Candidates a run has counted toward its budget by the end of generation
+    /// `generation`: its initial population, then `offspring_per_generation` a generation
+    /// (initial draws refused before simulating do not count). The one formula for a
+    /// run's budget, its progress and the report's evaluations axis.
+    pub fn candidates_by(&self, generation: u32) -> u64 {
+        u64::from(self.initial_population)
+            + u64::from(generation) * u64::from(self.offspring_per_generation)
+    }
+
+    /// A run's whole budget in candidates (an ES candidate counts once).
+    pub fn candidates_per_run(&self) -> u64 {
+        self.candidates_by(self.generations)
+    }
+
     /// Control steps in one trial.
     pub fn control_steps(&self) -> u32 {
         (self.trial_seconds * self.control_hz).round() as u32
@@ -441,7 +455,7 @@ impl Experiment {
     /// Candidates one run evaluates for its generations (the initial population needs
     /// more: it draws until `initial_population` pass its checks).
     pub fn offspring_per_run(&self) -> u64 {
-        u64::from(self.run.generations) * u64::from(self.run.offspring_per_generation)
+        self.run.candidates_per_run() - u64::from(self.run.initial_population)
     }
 }
 

@@ -12,6 +12,7 @@ pub mod features;
 pub mod gait;
 pub mod genome;
 pub mod hull;
+pub mod ids;
 pub mod inspect;
 pub mod kinematics;
 pub mod mass;
@@ -29,12 +30,12 @@ pub use brief::DesignBrief;
 pub use experiment::Experiment;
 pub use features::{CellIndex, FeatureGrid, Features};
 pub use genome::{Controller, Genome, Morphology};
+pub use ids::{CandidateId, CandidateKey, CandidateNumber, RunId, WorkerId};
 pub use outcome::{
     Fall, GaitStats, InvalidReason, Outcome, Shortfall, Skate, Standing, TrialStats,
 };
 pub use pose::StartPose;
 pub use precheck::EvalContext;
-pub use rng::CandidateKey;
 pub use variation::{MutationRates, Scheme};
 
 /// The Strider build: trials are bit-identical only within one build (see

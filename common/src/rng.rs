@@ -6,6 +6,7 @@
 //! candidate can be regenerated from `(run seed, candidate number)` alone, and no two
 //! candidates or purposes share a stream.
 
+use crate::ids::CandidateNumber;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -17,35 +18,6 @@ pub type StriderRng = ChaCha8Rng;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct RunSeed(pub u64);
-
-/// A candidate's number within its run (0-based, in creation order).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct CandidateNumber(pub u64);
-
-/// A candidate of a run: run index, generation and candidate number. The generation is
-/// part of the identity because a draw of the initial population that turned out not to
-/// be needed shares its number with a candidate of generation 1: a late result for the
-/// draw must never be taken for the offspring.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct CandidateKey {
-    /// Run index (= run id), from 0.
-    pub run: u32,
-    /// Generation (0 = initial population).
-    pub generation: u32,
-    /// Candidate number within the run.
-    pub number: CandidateNumber,
-}
-
-impl std::fmt::Display for CandidateKey {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "run {} generation {} candidate {}",
-            self.run, self.generation, self.number.0
-        )
-    }
-}
 
 /// Everything that decides a candidate's random draws.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

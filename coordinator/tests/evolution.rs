@@ -3,7 +3,8 @@
 //! feasible one is), uniformly within the feasible library and by tournament on closeness
 //! to the brief within the infeasible one, reproducibly from the candidate's stream.
 
-use strider_common::rng::{CandidateNumber, CandidateSeed, Purpose};
+use strider_common::ids::CandidateNumber;
+use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{CellIndex, Genome, Scheme, Shortfall, Standing};
 use strider_coordinator::qd::evolution::{Parents, Source};
 use strider_coordinator::qd::library::{Elite, InfeasibleElite, InfeasibleLibrary, Library};

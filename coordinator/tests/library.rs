@@ -1,7 +1,8 @@
 //! The MAP-Elites library and breeding, on synthetic outcomes (no simulation needed).
 
 use strider_common::brief::{Constraint, Violation};
-use strider_common::rng::{CandidateNumber, CandidateSeed};
+use strider_common::ids::CandidateNumber;
+use strider_common::rng::CandidateSeed;
 use strider_common::{
     CellIndex, Controller, Features, Genome, InvalidReason, MutationRates, Outcome, Scheme,
     TrialStats,

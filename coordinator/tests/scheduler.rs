@@ -3,13 +3,15 @@
 //! that keeps losing its lease fails and its generation goes on.
 
 use std::time::{Duration, Instant};
-use strider_common::rng::{CandidateNumber, CandidateSeed};
+use strider_common::ids::CandidateNumber;
+use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
 use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
+use strider_common::{RunId, WorkerId};
 use strider_coordinator::qd::changes::{RunRecord, Write};
 use strider_coordinator::qd::library::{InfeasibleLibrary, Library};
 use strider_coordinator::qd::scheduler::{
-    fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler, WorkerId,
+    fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler,
 };
 use strider_worker::synthetic::instant_outcome;
 
@@ -35,7 +37,7 @@ fn fresh(e: &Experiment, max_attempts: u32) -> Scheduler {
         .runs()
         .into_iter()
         .enumerate()
-        .map(|(i, spec)| RunRecord::new(i as i64, spec))
+        .map(|(i, spec)| RunRecord::new(RunId::from_index(i), spec))
         .collect();
     Scheduler::new(e.clone(), runs, Vec::new(), LEASE, max_attempts)
 }
@@ -88,7 +90,7 @@ fn drive_experiment(
     }
     let libraries = (0..e.runs().len())
         .map(|i| {
-            let r = s.run(i).unwrap();
+            let r = s.run(RunId::from_index(i)).unwrap();
             (r.library.clone(), r.infeasible.clone())
         })
         .collect();
@@ -152,10 +154,13 @@ fn unknown_candidates_and_runs_are_refused() {
         s.accept(WorkerId(1), far, o.clone(), 0.0),
         Err(Refusal::Unknown(far))
     );
-    let no_run = CandidateKey { run: 7, ..a.key };
+    let no_run = CandidateKey {
+        run: RunId(7),
+        ..a.key
+    };
     assert_eq!(
         s.accept(WorkerId(1), no_run, o, 0.0),
-        Err(Refusal::NoSuchRun(7))
+        Err(Refusal::NoSuchRun(RunId(7)))
     );
 }
 
@@ -238,7 +243,7 @@ fn a_candidate_that_keeps_killing_workers_fails_and_its_generation_goes_on() {
         for w in writes {
             if let Write::Step(step) = w {
                 for c in &step.candidates {
-                    if c.number == victim.key.number && step.run == i64::from(victim.key.run) {
+                    if c.number == victim.key.number && step.run == victim.key.run {
                         match &c.outcome {
                             Outcome::Invalid {
                                 reason: InvalidReason::EvaluationFailed { attempts, last },
@@ -266,7 +271,7 @@ fn a_late_result_for_an_unneeded_initial_draw_is_not_taken_for_an_offspring() {
     let draws: Vec<Assignment> = s
         .lease(WorkerId(0), now, 40)
         .into_iter()
-        .filter(|a| a.key.run == 0)
+        .filter(|a| a.key.run == RunId(0))
         .collect();
     assert!(draws.len() > 10);
     let mut spare = Vec::new();
@@ -284,7 +289,7 @@ fn a_late_result_for_an_unneeded_initial_draw_is_not_taken_for_an_offspring() {
     let offspring: Vec<Assignment> = s
         .lease(WorkerId(1), now, 100)
         .into_iter()
-        .filter(|a| a.key.run == 0)
+        .filter(|a| a.key.run == RunId(0))
         .collect();
     assert!(offspring.iter().all(|a| a.key.generation == 1));
     assert!(offspring
@@ -313,7 +318,7 @@ fn the_initial_population_is_the_first_designs_that_pass_the_checks_before_simul
     let e = experiment();
     let (_, s) = drive_experiment(&e, 2, 3, |_| {});
     for i in 0..2 {
-        let r = s.run(i).unwrap();
+        let r = s.run(RunId(i)).unwrap();
         assert_eq!(r.initial_passed, e.run.initial_population);
     }
 }
@@ -329,7 +334,7 @@ fn under_the_papers_method_only_designs_that_meet_the_brief_are_placed() {
             "run {i}: nothing enters an infeasible library"
         );
         assert!(!feasible.is_empty());
-        let r = s.run(i).unwrap();
+        let r = s.run(RunId::from_index(i)).unwrap();
         // The initial population was drawn until that many designs passed every check.
         assert_eq!(r.initial_passed, e.run.initial_population);
     }
@@ -493,7 +498,10 @@ fn a_candidate_is_answered_once_it_has_a_result_and_unknown_ones_never_are() {
         ..a.key
     };
     assert!(!s.answered(unknown));
-    let no_run = CandidateKey { run: 99, ..a.key };
+    let no_run = CandidateKey {
+        run: RunId(99),
+        ..a.key
+    };
     assert!(!s.answered(no_run));
 }
 
@@ -502,7 +510,7 @@ fn the_fraction_done_counts_initial_designs_and_generations_over_the_budget() {
     let e = experiment();
     // Budget per run: 6 initial designs + 5 generations x 10 = 56 candidates.
     let at = |initial_passed, generation, finished| RunProgress {
-        run: 0,
+        run: RunId(0),
         scheme: strider_common::Scheme::Static,
         repeat: 0,
         seed: strider_common::rng::RunSeed(1),

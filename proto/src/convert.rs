@@ -6,7 +6,7 @@ use crate::v1;
 use strider_common::brief::{Constraint, Violation};
 use strider_common::features::{CellIndex, Features, FEATURE_COUNT};
 use strider_common::genome::{GenomeError, ParamVector};
-use strider_common::rng::{CandidateKey, CandidateNumber};
+use strider_common::ids::{CandidateKey, CandidateNumber};
 use strider_common::{
     Controller, Fall, GaitStats, Genome, InvalidReason, Morphology, Outcome, Scheme, Skate,
     TrialStats,
@@ -78,7 +78,7 @@ impl TryFrom<&v1::Genome> for Genome {
 impl From<CandidateKey> for v1::CandidateId {
     fn from(k: CandidateKey) -> Self {
         v1::CandidateId {
-            run: k.run,
+            run: k.run.0,
             generation: k.generation,
             number: k.number.0,
         }
@@ -88,7 +88,7 @@ impl From<CandidateKey> for v1::CandidateId {
 impl From<&v1::CandidateId> for CandidateKey {
     fn from(id: &v1::CandidateId) -> Self {
         CandidateKey {
-            run: id.run,
+            run: strider_common::RunId(id.run),
             generation: id.generation,
             number: CandidateNumber(id.number),
         }

@@ -90,7 +90,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     // What it costs: every trial (an ES candidate is many) at the cost of one that walks
     // to its end, measured now on this machine, or else from MAX's measured trial on the
     // development machine (BENCHMARKS.md: 0.124 ms a physics step on one core).
-    let per_run = u64::from(e.run.initial_population) + e.offspring_per_run();
+    let per_run = e.run.candidates_per_run();
     let trials: u64 = runs
         .iter()
         .map(|r| match r.scheme {

@@ -9,6 +9,7 @@ use clap::ValueEnum;
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use strider_common::RunId;
 use strider_common::{BodyPlan, CellIndex, Outcome};
 use strider_process::outln;
 
@@ -31,7 +32,7 @@ pub struct ExportArgs {
     db: PathBuf,
     /// Only this run (its id, from 0).
     #[arg(long)]
-    run: Option<i64>,
+    run: Option<RunId>,
     /// Output format.
     #[arg(long, value_enum, default_value = "json")]
     format: Format,
@@ -63,7 +64,7 @@ pub async fn execute(args: ExportArgs) -> anyhow::Result<Exit> {
 }
 
 /// Every elite and every generation's statistics of the chosen runs.
-async fn export_all(path: &Path, only: Option<i64>, format: Format) -> anyhow::Result<()> {
+async fn export_all(path: &Path, only: Option<RunId>, format: Format) -> anyhow::Result<()> {
     let (db, experiment) = open_existing(path).await?;
     let runs = selected_runs(&db, only).await?;
     let mut rows = Vec::new();
@@ -139,7 +140,7 @@ async fn export_all(path: &Path, only: Option<i64>, format: Format) -> anyhow::R
 /// `export --elite E [--genome FILE]`: one elite's genome file, to standard output or FILE.
 async fn export_genome(
     path: &Path,
-    only: Option<i64>,
+    only: Option<RunId>,
     choice: EliteChoice,
     to: Option<&Path>,
 ) -> anyhow::Result<()> {
@@ -159,7 +160,7 @@ async fn export_genome(
 /// `export --elite E --urdf FILE`: one elite's design as URDF.
 async fn export_urdf(
     path: &Path,
-    only: Option<i64>,
+    only: Option<RunId>,
     choice: EliteChoice,
     urdf: &Path,
 ) -> anyhow::Result<()> {

@@ -6,6 +6,7 @@ use crate::qd::changes::RunRecord;
 use anyhow::{bail, Context};
 use std::path::Path;
 use strider_common::Experiment;
+use strider_common::RunId;
 
 /// Opens the database, creating it with the given experiment (or, for `run`, the built-in
 /// quick one) when new; refuses an experiment that differs from the stored one.
@@ -91,7 +92,7 @@ pub(super) async fn open_existing(path: &Path) -> anyhow::Result<(Db, Experiment
 }
 
 /// Every run of the database, or only `only` (which must exist).
-pub(super) async fn selected_runs(db: &Db, only: Option<i64>) -> anyhow::Result<Vec<RunRecord>> {
+pub(super) async fn selected_runs(db: &Db, only: Option<RunId>) -> anyhow::Result<Vec<RunRecord>> {
     let runs: Vec<_> = db
         .runs()
         .await?

@@ -7,6 +7,7 @@ use crate::results::report::{png, Inputs, RunData};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
 use strider_common::Genome;
+use strider_common::RunId;
 
 /// Arguments of `report`.
 #[derive(clap::Args)]
@@ -19,7 +20,7 @@ pub struct ReportArgs {
     out: PathBuf,
     /// The run whose library is drawn (its id; the one with the best design by default).
     #[arg(long)]
-    run: Option<i64>,
+    run: Option<RunId>,
 }
 
 /// The reference design MAX, marked on library maps.
@@ -55,7 +56,7 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
         runs.iter()
             .flat_map(|r| r.library.elites().map(move |(_, e)| (r.id, e.fitness)))
             .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map_or(0, |(id, _)| id)
+            .map_or(RunId(0), |(id, _)| id)
     });
     let max: Genome = serde_json::from_str(MAX_DESIGN).context("the built-in MAX design")?;
     let report = crate::results::report::build(&Inputs {

@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use strider_common::experiment::RunSpec;
+use strider_common::RunId;
 use strider_common::{Experiment, Outcome};
 use strider_process::outln;
 
@@ -69,7 +70,10 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         .problems
         .extend(crate::db::damaged_generations(&damaged_generations));
     for (i, run) in runs.iter().enumerate() {
-        if damaged_generations.iter().any(|(r, _)| *r == run.id) {
+        if damaged_generations
+            .iter()
+            .any(|(r, _)| *r == crate::db::run_column(run.id))
+        {
             continue;
         }
         let stored = db.generations(run.id).await?;
@@ -77,7 +81,9 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
         verdict
             .problems
             .extend(crate::qd::verify::generation_problems(
-                i as u32, &stored, replayed,
+                RunId::from_index(i),
+                &stored,
+                replayed,
             ));
     }
     outln!("checked every run's generations table against the replay");
@@ -132,7 +138,7 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
             .collect()
     };
     if !chosen.is_empty() {
-        let spec_of: HashMap<i64, RunSpec> = runs.iter().map(|r| (r.id, r.spec)).collect();
+        let spec_of: HashMap<RunId, RunSpec> = runs.iter().map(|r| (r.id, r.spec)).collect();
         // Candidates of no run were reported by the replay; the rest, paired with their jobs.
         let chosen: Vec<_> = chosen
             .into_iter()

@@ -6,11 +6,11 @@
 
 use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::{column, PendingRow};
-use super::{standing_figure, Db, DbError};
+use super::{run_column, standing_figure, worker_column, Db, DbError};
 use crate::qd::changes::{RunPosition, StepCommit, Write};
 use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::HashMap;
-use strider_common::{InvalidReason, Outcome};
+use strider_common::{InvalidReason, Outcome, RunId};
 
 /// Rows per multi-row statement (9 parameters each; SQLite allows 32,766).
 const ROWS_PER_STATEMENT: usize = 1000;
@@ -112,12 +112,12 @@ fn pending_row(w: &Write) -> Option<PendingRow> {
                 }
             );
             Some(PendingRow {
-                run_id: *run,
+                run_id: run_column(*run),
                 number: number.0 as i64,
                 generation: i64::from(*generation),
                 status: if failed { "failed" } else { "done" }.to_string(),
                 attempts: i64::from(*attempts),
-                worker: worker.map(|w| w as i64),
+                worker: worker.map(worker_column),
                 outcome: Some(json(outcome)),
                 seconds: Some(*seconds),
                 checksum: None,
@@ -130,12 +130,12 @@ fn pending_row(w: &Write) -> Option<PendingRow> {
             attempts,
             worker,
         } => Some(PendingRow {
-            run_id: *run,
+            run_id: run_column(*run),
             number: number.0 as i64,
             generation: i64::from(*generation),
             status: "waiting".to_string(),
             attempts: i64::from(*attempts),
-            worker: Some(*worker as i64),
+            worker: Some(worker_column(*worker)),
             outcome: None,
             seconds: None,
             checksum: None,
@@ -146,7 +146,7 @@ fn pending_row(w: &Write) -> Option<PendingRow> {
 
 fn step_rows(step: &StepCommit) -> StepRows {
     StepRows {
-        run: step.run,
+        run: run_column(step.run),
         candidates: step
             .candidates
             .iter()
@@ -174,7 +174,7 @@ fn step_rows(step: &StepCommit) -> StepRows {
                     infeasible_placement: c.infeasible.map(|p| p.name()),
                     checksum: 0,
                 };
-                row.checksum = row.columns(step.run).checksum();
+                row.checksum = row.columns(run_column(step.run)).checksum();
                 row
             })
             .collect(),
@@ -265,7 +265,7 @@ impl Db {
 fn rows_outliving_the_group(writes: &[Write]) -> Vec<bool> {
     // A run's steps only ever widen what they clear, so its last step in the group
     // decides for every row before it.
-    let mut last_step: HashMap<i64, &StepCommit> = HashMap::new();
+    let mut last_step: HashMap<RunId, &StepCommit> = HashMap::new();
     let mut needed = vec![true; writes.len()];
     for (i, w) in writes.iter().enumerate().rev() {
         match w {
@@ -335,7 +335,7 @@ async fn write_worker(
             slots,
         } => {
             sqlx::query("INSERT INTO workers (id, name, build, slots, connected_at) VALUES (?, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))")
-                .bind(*id as i64)
+                .bind(worker_column(*id))
                 .bind(name)
                 .bind(build)
                 .bind(i64::from(*slots))
@@ -350,7 +350,7 @@ async fn write_worker(
             sqlx::query("UPDATE workers SET disconnected_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), results = ?, left_because = ? WHERE id = ?")
                 .bind(*results as i64)
                 .bind(reason)
-                .bind(*id as i64)
+                .bind(worker_column(*id))
                 .execute(&mut **tx)
                 .await?;
         }
@@ -524,21 +524,22 @@ async fn write_step(
 mod tests {
     use super::*;
     use crate::qd::changes::{RunPosition, StepCommit};
-    use strider_common::rng::CandidateNumber;
+    use strider_common::ids::CandidateNumber;
+    use strider_common::WorkerId;
 
-    fn lost(run: i64, number: u64, generation: u32) -> Write {
+    fn lost(run: u32, number: u64, generation: u32) -> Write {
         Write::LeaseLost {
-            run,
+            run: RunId(run),
             number: CandidateNumber(number),
             generation,
             attempts: 1,
-            worker: 7,
+            worker: WorkerId(7),
         }
     }
 
-    fn step(run: i64, generation: u32, next_candidate: u64) -> Write {
+    fn step(run: u32, generation: u32, next_candidate: u64) -> Write {
         Write::Step(Box::new(StepCommit {
-            run,
+            run: RunId(run),
             position: RunPosition {
                 generation,
                 initial_passed: 400,
@@ -562,7 +563,7 @@ mod tests {
             step(0, 3, 20),
             lost(0, 12, 3), // after the step: written (cannot happen, but must be kept)
             Write::WorkerLeft {
-                id: 7,
+                id: WorkerId(7),
                 results: 0,
                 reason: String::new(),
             },

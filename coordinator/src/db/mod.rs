@@ -23,8 +23,10 @@ use sqlx::sqlite::{
 };
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
-use strider_common::rng::CandidateNumber;
-use strider_common::{CellIndex, Experiment, Genome, Outcome, Shortfall, Standing};
+use strider_common::ids::CandidateNumber;
+use strider_common::{
+    CellIndex, Experiment, Genome, Outcome, RunId, Shortfall, Standing, WorkerId,
+};
 
 /// A database problem, with what was being done.
 #[derive(Debug, thiserror::Error)]
@@ -64,11 +66,28 @@ use rows::{
 };
 use std::collections::HashMap;
 
+/// A run's id as a row stores it.
+pub(crate) fn run_column(run: RunId) -> i64 {
+    i64::from(run.0)
+}
+
+/// A run id as `table` stores it, checked.
+pub(crate) fn run_of(column: i64, table: &str) -> Result<RunId, DbError> {
+    u32::try_from(column)
+        .map(RunId)
+        .map_err(|_| DbError::Corrupt(format!("table {table}: run id {column} out of range")))
+}
+
+/// A worker id as a row stores it.
+pub(crate) fn worker_column(worker: WorkerId) -> i64 {
+    worker.0 as i64
+}
+
 /// Which elites a listing wants.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EliteFilter {
     /// Only this run.
-    pub run: Option<i64>,
+    pub run: Option<RunId>,
     /// Only this cell.
     pub cell: Option<i64>,
     /// Only at least this fit.
@@ -78,7 +97,7 @@ pub struct EliteFilter {
 /// An elite as stored, with the outcome that placed it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredElite {
-    pub run: i64,
+    pub run: RunId,
     pub cell: CellIndex,
     pub candidate: CandidateNumber,
     pub fitness: f64,
@@ -144,7 +163,7 @@ impl Db {
         for r in runs {
             index.insert(r.id, out.len());
             out.push(RunRecord {
-                id: r.id,
+                id: run_of(r.id, "runs")?,
                 spec: r.spec()?,
                 generation: r.generation as u32,
                 initial_passed: r.initial_passed as u32,
@@ -222,7 +241,7 @@ impl Db {
                     DbError::Corrupt(format!("run {run} candidate {number}: {what}: {e}"))
                 };
                 Ok(StoredCandidate {
-                    run,
+                    run: run_of(run, t)?,
                     number: CandidateNumber(number),
                     generation: rows::column::<i64>(r, t, &key, "generation")? as u32,
                     genome: serde_json::from_str(rows::column::<&str>(r, t, &key, "genome")?)
@@ -254,11 +273,11 @@ impl Db {
     }
 
     /// The id the next worker session gets (ids are never reused, across restarts too).
-    pub async fn next_worker_id(&self) -> Result<u64, DbError> {
+    pub async fn next_worker_id(&self) -> Result<WorkerId, DbError> {
         let max: Option<i64> = sqlx::query_scalar("SELECT MAX(id) FROM workers")
             .fetch_one(&self.pool)
             .await?;
-        Ok(max.map_or(1, |m| m as u64 + 1))
+        Ok(WorkerId(max.map_or(1, |m| m as u64 + 1)))
     }
 
     /// Elites, best first, filtered, one page: `(run, cell, candidate, fitness, outcome)`.
@@ -274,7 +293,7 @@ impl Db {
              WHERE (?1 IS NULL OR e.run_id = ?1) AND (?2 IS NULL OR e.cell = ?2) AND (?3 IS NULL OR e.fitness >= ?3) \
              ORDER BY e.fitness DESC, e.run_id, e.cell LIMIT ?4 OFFSET ?5",
         )
-        .bind(filter.run)
+        .bind(filter.run.map(run_column))
         .bind(filter.cell)
         .bind(filter.min_fitness)
         .bind(i64::from(limit))
@@ -287,13 +306,13 @@ impl Db {
     }
 
     /// A run's infeasible library in cell order, with each elite's outcome.
-    pub async fn list_infeasible(&self, run_id: i64) -> Result<Vec<StoredInfeasible>, DbError> {
+    pub async fn list_infeasible(&self, run: RunId) -> Result<Vec<StoredInfeasible>, DbError> {
         let found = sqlx::query(
             "SELECT e.run_id, e.cell, e.candidate, e.shortfall, e.standing, e.genome, c.outcome FROM infeasible_elites e \
              JOIN candidates c ON c.run_id = e.run_id AND c.number = e.candidate \
              WHERE e.run_id = ? ORDER BY e.cell",
         )
-        .bind(run_id)
+        .bind(run_column(run))
         .fetch_all(&self.pool)
         .await?;
         let rows: Vec<InfeasibleWithOutcomeRow> =
@@ -305,12 +324,12 @@ impl Db {
     /// checksum, or cannot be decoded, is an error naming it.
     pub async fn generations(
         &self,
-        run_id: i64,
+        run: RunId,
     ) -> Result<Vec<(u32, u64, GenerationStats)>, DbError> {
         let rows = sqlx::query(&format!(
             "SELECT {GENERATION_COLUMNS} FROM generations WHERE run_id = ? ORDER BY generation"
         ))
-        .bind(run_id)
+        .bind(run_column(run))
         .fetch_all(&self.pool)
         .await?;
         rows.iter()

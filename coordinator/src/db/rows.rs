@@ -9,7 +9,8 @@ use sqlx::sqlite::{Sqlite, SqliteRow};
 use sqlx::Row;
 use std::fmt::Display;
 use strider_common::experiment::RunSpec;
-use strider_common::rng::{CandidateNumber, RunSeed};
+use strider_common::ids::CandidateNumber;
+use strider_common::rng::RunSeed;
 use strider_common::{CellIndex, Genome, Outcome, Scheme, Shortfall};
 
 /// Column `column` of `row`, a row of `table` that `key` names ("run 0 candidate 12"):
@@ -189,7 +190,7 @@ impl TryFrom<PendingRow> for StoredPending {
     fn try_from(r: PendingRow) -> Result<Self, DbError> {
         let (run, number) = (r.run_id, r.number);
         Ok(StoredPending {
-            run: r.run_id,
+            run: super::run_of(r.run_id, "pending")?,
             number: CandidateNumber(r.number as u64),
             attempts: r.attempts as u32,
             generation: r.generation as u32,
@@ -222,7 +223,7 @@ impl TryFrom<EliteWithOutcomeRow> for StoredElite {
         let (cell, elite) = r.elite.elite()?;
         let candidate = elite.candidate.0;
         Ok(StoredElite {
-            run,
+            run: super::run_of(run, "cells")?,
             cell,
             candidate: elite.candidate,
             fitness: elite.fitness,

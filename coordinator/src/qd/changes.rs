@@ -8,14 +8,14 @@ use crate::qd::library::{
     Placement,
 };
 use strider_common::experiment::RunSpec;
-use strider_common::rng::CandidateNumber;
-use strider_common::{CellIndex, Genome, Outcome};
+use strider_common::ids::CandidateNumber;
+use strider_common::{CellIndex, Genome, Outcome, RunId, WorkerId};
 
 /// One run's persistent state.
 #[derive(Clone, Debug)]
 pub struct RunRecord {
     /// Row id (0-based, in experiment order).
-    pub id: i64,
+    pub id: RunId,
     /// Scheme, repeat and seed.
     pub spec: RunSpec,
     /// Last committed generation (0: the initial population, complete or not).
@@ -60,7 +60,7 @@ pub struct RunPosition {
 
 impl RunRecord {
     /// A run that has not begun: no candidate, empty libraries.
-    pub fn new(id: i64, spec: RunSpec) -> Self {
+    pub fn new(id: RunId, spec: RunSpec) -> Self {
         Self {
             id,
             spec,
@@ -94,7 +94,7 @@ impl RunRecord {
 /// written before it, so the database never holds half a generation.
 #[derive(Clone, Debug)]
 pub struct StepCommit {
-    pub run: i64,
+    pub run: RunId,
     /// The run's position after the step.
     pub position: RunPosition,
     /// The candidates applied, in order.
@@ -134,32 +134,32 @@ impl StepCommit {
 pub enum Write {
     /// A candidate's result came in (or it failed for good).
     Resolved {
-        run: i64,
+        run: RunId,
         number: CandidateNumber,
         generation: u32,
         /// Leases it lost before.
         attempts: u32,
         outcome: Outcome,
         /// Worker session that sent it (none when it failed).
-        worker: Option<u64>,
+        worker: Option<WorkerId>,
         /// Wall time the evaluation took.
         seconds: f64,
     },
     /// A lease was lost (worker died, hung or disconnected); the candidate waits again.
     LeaseLost {
-        run: i64,
+        run: RunId,
         number: CandidateNumber,
         generation: u32,
         /// Leases it has lost so far.
         attempts: u32,
         /// The worker session that lost it.
-        worker: u64,
+        worker: WorkerId,
     },
     /// A step was applied to the library.
     Step(Box<StepCommit>),
     /// A worker connected.
     WorkerJoined {
-        id: u64,
+        id: WorkerId,
         name: String,
         build: String,
         /// Candidates it holds at once.
@@ -167,7 +167,7 @@ pub enum Write {
     },
     /// A worker disconnected.
     WorkerLeft {
-        id: u64,
+        id: WorkerId,
         /// Results it sent.
         results: u64,
         /// Why it left.
@@ -178,7 +178,7 @@ pub enum Write {
 /// A candidate of a run's current step as stored: its result if one came in.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredPending {
-    pub run: i64,
+    pub run: RunId,
     pub number: CandidateNumber,
     pub generation: u32,
     /// Leases lost so far.
@@ -190,7 +190,7 @@ pub struct StoredPending {
 /// An applied candidate as stored (the `candidates` table).
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredCandidate {
-    pub run: i64,
+    pub run: RunId,
     pub number: CandidateNumber,
     pub generation: u32,
     pub genome: Genome,

@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use strider_common::rng::CandidateNumber;
+use strider_common::ids::CandidateNumber;
 use strider_common::{CellIndex, Genome, Outcome, Shortfall, Standing};
 
 /// The best design found for one cell.

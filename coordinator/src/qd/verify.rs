@@ -10,11 +10,11 @@
 
 use crate::qd::changes::{RunRecord, StoredCandidate, Write};
 use crate::qd::library::GenerationStats;
-use crate::qd::scheduler::{Scheduler, WorkerId};
+use crate::qd::scheduler::Scheduler;
 use std::collections::HashMap;
 use std::collections::HashSet;
 use std::time::{Duration, Instant};
-use strider_common::Experiment;
+use strider_common::{CandidateId, Experiment, RunId, WorkerId};
 
 /// Most problems reported per run (after the first divergence, the rest follow from it).
 const MAX_PROBLEMS_PER_RUN: usize = 5;
@@ -60,16 +60,23 @@ pub fn replay(
             ));
         }
     }
-    let index: HashMap<i64, u32> = stored
+    // Each stored run's id to its place in the experiment (the scheduler's run).
+    let index: HashMap<RunId, RunId> = stored
         .iter()
         .enumerate()
-        .map(|(i, r)| (r.id, i as u32))
+        .map(|(i, r)| (r.id, RunId::from_index(i)))
         .collect();
-    let mut rows: HashMap<(u32, u64), &StoredCandidate> = HashMap::new();
+    let mut rows: HashMap<CandidateId, &StoredCandidate> = HashMap::new();
     for c in candidates {
         match index.get(&c.run) {
-            Some(&i) => {
-                rows.insert((i, c.number.0), c);
+            Some(&run) => {
+                rows.insert(
+                    CandidateId {
+                        run,
+                        number: c.number,
+                    },
+                    c,
+                );
             }
             None => verdict.problems.push(format!(
                 "candidate {} belongs to no run (run id {})",
@@ -92,14 +99,14 @@ pub fn replay(
     // The replay stops where the stored history does: no initial draw past it (one that
     // fails the checks before simulating would be applied at once).
     for (i, r) in stored.iter().enumerate() {
-        s.limit_draws(i, r.next_candidate);
+        s.limit_draws(RunId::from_index(i), r.next_candidate);
     }
     let now = Instant::now();
     let mut problems_of: Vec<usize> = vec![0; stored.len()];
-    let mut seen: HashSet<(u32, u64)> = HashSet::new();
-    let mut problem = |problems: &mut Vec<String>, run: u32, what: String| {
-        if problems_of[run as usize] < MAX_PROBLEMS_PER_RUN {
-            problems_of[run as usize] += 1;
+    let mut seen: HashSet<CandidateId> = HashSet::new();
+    let mut problem = |problems: &mut Vec<String>, run: RunId, what: String| {
+        if problems_of[run.index()] < MAX_PROBLEMS_PER_RUN {
+            problems_of[run.index()] += 1;
             problems.push(format!("run {run}: {what}"));
         }
     };
@@ -112,10 +119,9 @@ pub fn replay(
         // Leases left unanswered (past the stored history) stay out: the loop ends when
         // nothing is left to lease.
         for a in leased {
-            let run = a.key.run;
             // A draw past what is stored: the stored run stops here (spare initial draws,
             // or the step still open).
-            let Some(c) = rows.get(&(run, a.key.number.0)) else {
+            let Some(c) = rows.get(&CandidateId::from(a.key)) else {
                 continue;
             };
             if c.generation != a.key.generation {
@@ -131,11 +137,15 @@ pub fn replay(
                 continue;
             };
             if let Some(completed) = step.completed {
-                verdict.generations[run as usize].push(completed);
+                verdict.generations[run.index()].push(completed);
             }
             for applied in &step.candidates {
                 let n = applied.number.0;
-                match rows.get(&(run, n)) {
+                let id = CandidateId {
+                    run,
+                    number: applied.number,
+                };
+                match rows.get(&id) {
                     None => problem(
                         &mut verdict.problems,
                         run,
@@ -157,7 +167,7 @@ pub fn replay(
                         format!("candidate {n}: its kind, fitness or cell column does not say what its outcome says"),
                     ),
                     Some(_) => {
-                        seen.insert((run, n));
+                        seen.insert(id);
                     }
                 }
             }
@@ -165,8 +175,9 @@ pub fn replay(
     }
     verdict.replayed = seen.len() as u64;
     for (i, stored_run) in stored.iter().enumerate() {
-        let Some(replayed) = s.run(i) else { continue };
-        let mut report = |what: String| problem(&mut verdict.problems, i as u32, what);
+        let run = RunId::from_index(i);
+        let Some(replayed) = s.run(run) else { continue };
+        let mut report = |what: String| problem(&mut verdict.problems, run, what);
         if replayed.position() != stored_run.position() {
             report(format!(
                 "stored at {:?}, the replay of its candidates reaches {:?}",
@@ -246,7 +257,7 @@ fn compare<K: PartialEq + std::fmt::Debug, V: PartialEq>(
 /// last stored generation may be one the replay has not completed (its step still open
 /// when the history ends) only if nothing follows it.
 pub fn generation_problems(
-    run: u32,
+    run: RunId,
     stored: &[(u32, u64, GenerationStats)],
     replayed: &[(u32, GenerationStats)],
 ) -> Vec<String> {

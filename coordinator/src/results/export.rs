@@ -10,12 +10,14 @@ use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;
 use strider_common::genome::ParamVector;
 use strider_common::params::{ParamKind, CONTROLLER_PARAMS, MORPHOLOGY_PARAMS};
-use strider_common::{CellIndex, Features, Genome, Outcome, Shortfall, Standing, TrialStats};
+use strider_common::{
+    CellIndex, Features, Genome, Outcome, RunId, Shortfall, Standing, TrialStats,
+};
 
 /// One elite as exported.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExportedElite {
-    pub run: i64,
+    pub run: RunId,
     /// The run's scheme name.
     pub scheme: String,
     /// The run's repeat number.
@@ -238,7 +240,7 @@ pub enum EliteChoice {
     /// The fittest elite (of one run, or of the experiment).
     Best,
     /// Run and cell, written `RUN:CELL`.
-    At { run: i64, cell: u32 },
+    At { run: RunId, cell: u32 },
 }
 
 impl std::str::FromStr for EliteChoice {
@@ -250,7 +252,7 @@ impl std::str::FromStr for EliteChoice {
         let bad = || format!("elite `{s}`: expected RUN:CELL (for example 0:1234) or `best`");
         let (run, cell) = s.split_once(':').ok_or_else(bad)?;
         Ok(EliteChoice::At {
-            run: run.trim().parse().map_err(|_| bad())?,
+            run: RunId(run.trim().parse().map_err(|_| bad())?),
             cell: cell.trim().parse().map_err(|_| bad())?,
         })
     }
@@ -260,7 +262,7 @@ impl std::str::FromStr for EliteChoice {
 /// cell holds no feasible design.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Found {
-    pub run: i64,
+    pub run: RunId,
     pub cell: CellIndex,
     pub genome: Genome,
     /// Its fitness when it meets the brief; otherwise what it misses the brief by.
@@ -307,7 +309,7 @@ impl std::fmt::Display for Found {
 /// Finds the chosen elite among `runs`, whose cells number `cell_count`: for `RUN:CELL`
 /// the cell's feasible elite, or its infeasible one where it has no feasible one.
 pub fn find(runs: &[RunRecord], choice: EliteChoice, cell_count: u32) -> Result<Found, String> {
-    let feasible = |run: i64, cell: CellIndex, e: &Elite| Found {
+    let feasible = |run: RunId, cell: CellIndex, e: &Elite| Found {
         run,
         cell,
         genome: e.genome,
@@ -358,7 +360,13 @@ mod tests {
     #[test]
     fn elites_are_named_by_run_and_cell_or_best() {
         assert_eq!("best".parse(), Ok(EliteChoice::Best));
-        assert_eq!("2:1234".parse(), Ok(EliteChoice::At { run: 2, cell: 1234 }));
+        assert_eq!(
+            "2:1234".parse(),
+            Ok(EliteChoice::At {
+                run: RunId(2),
+                cell: 1234
+            })
+        );
         let err = "1234".parse::<EliteChoice>().unwrap_err();
         assert!(err.contains("expected RUN:CELL"), "{err}");
         assert!("a:b".parse::<EliteChoice>().is_err());
@@ -378,7 +386,7 @@ mod tests {
         )
         .unwrap();
         let row = ExportedElite {
-            run: 0,
+            run: RunId(0),
             scheme: "static".into(),
             repeat: 0,
             cell: CellIndex(7),

@@ -8,6 +8,7 @@ use std::pin::Pin;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Duration;
+use strider_common::RunId;
 use strider_proto::convert::scheme_to_wire;
 use strider_proto::v1::{self, client_service_server::ClientService};
 use strider_proto::PROTOCOL_VERSION;
@@ -92,7 +93,7 @@ pub fn progress(shared: &Shared) -> v1::Progress {
         runs: runs
             .into_iter()
             .map(|r| v1::RunProgress {
-                run: r.run,
+                run: r.run.0,
                 scheme: scheme_to_wire(r.scheme).into(),
                 repeat: r.repeat,
                 seed: r.seed.0,
@@ -128,7 +129,7 @@ fn summary(e: &StoredElite) -> v1::EliteSummary {
         _ => Vec::new(),
     };
     v1::EliteSummary {
-        run: e.run as u32,
+        run: e.run.0,
         cell: e.cell.0,
         candidate: e.candidate.0,
         fitness: e.fitness,
@@ -209,7 +210,7 @@ impl ClientService for ClientApi {
             }
         }
         let filter = EliteFilter {
-            run: r.run.map(i64::from),
+            run: r.run.map(RunId),
             cell: r.cell.map(i64::from),
             min_fitness: r.min_fitness,
         };
@@ -244,7 +245,7 @@ impl ClientService for ClientApi {
         let r = request.get_ref();
         check_version(r.protocol_version)?;
         let filter = EliteFilter {
-            run: Some(i64::from(r.run)),
+            run: Some(RunId(r.run)),
             cell: Some(i64::from(r.cell)),
             min_fitness: None,
         };

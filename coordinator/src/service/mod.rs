@@ -175,7 +175,7 @@ impl Shared {
     pub fn candidates_budget(&self) -> u64 {
         self.with(false, |s| {
             let e = s.experiment();
-            (u64::from(e.run.initial_population) + e.offspring_per_run()) * e.runs().len() as u64
+            e.run.candidates_per_run() * e.runs().len() as u64
         })
     }
 

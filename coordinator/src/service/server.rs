@@ -142,7 +142,7 @@ pub async fn serve(
         steps: watch::Sender::new(0),
         finished: watch::Sender::new(false),
         workers: AtomicU32::new(0),
-        next_worker: AtomicU64::new(next_worker),
+        next_worker: AtomicU64::new(next_worker.0),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
         pace: Mutex::new(Default::default()),

@@ -4,7 +4,7 @@
 
 use super::Shared;
 use crate::qd::changes::Write;
-use crate::qd::scheduler::{Refusal, WorkerId};
+use crate::qd::scheduler::Refusal;
 use std::collections::HashSet;
 use std::pin::Pin;
 use std::sync::atomic::Ordering;
@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use strider_common::CandidateKey;
 use strider_common::Outcome;
+use strider_common::WorkerId;
 use strider_proto::convert::{self, scheme_to_wire};
 use strider_proto::v1::{
     self, coordinator_message, worker_message, worker_service_server::WorkerService,
@@ -94,7 +95,7 @@ impl WorkerService for WorkerApi {
         .await
         .map_err(|_| Status::cancelled("the worker went away"))?;
         shared.write(vec![Write::WorkerJoined {
-            id: id.0,
+            id,
             name: hello.worker_name.clone(),
             build: hello.build.clone(),
             slots: hello.slots,
@@ -228,7 +229,7 @@ impl Session {
         self.shared.with(true, |s| s.disconnect(self.id, &why));
         self.shared.workers.fetch_sub(1, Ordering::Relaxed);
         self.shared.write(vec![Write::WorkerLeft {
-            id: self.id.0,
+            id: self.id,
             results: self.results,
             reason: reason.clone(),
         }]);

@@ -17,12 +17,13 @@ use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use strider_common::experiment::{ConstraintHandling, RunSettings};
+use strider_common::ids::{CandidateKey, CandidateNumber};
 use strider_common::precheck::precheck;
-use strider_common::rng::{CandidateKey, CandidateNumber, CandidateSeed, RunSeed};
-use strider_common::EvalContext;
+use strider_common::rng::{CandidateSeed, RunSeed};
 use strider_common::{
     BodyPlan, CellIndex, Experiment, Features, Genome, InvalidReason, Outcome, Scheme, Standing,
 };
+use strider_common::{EvalContext, RunId, WorkerId};
 
 mod steps;
 
@@ -38,10 +39,6 @@ pub const INITIAL_WINDOW: u64 = 4096;
 /// simulating the candidate; each worker session counts once per candidate. Hand-backs and
 /// leases never begun do not count: they say nothing about the candidate.
 pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
-
-/// A worker connection (ids are never reused).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct WorkerId(pub u64);
 
 /// A candidate handed to a worker.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,7 +56,7 @@ pub struct Assignment {
 pub enum Refusal {
     /// The run does not exist.
     #[error("the experiment has no run {0}")]
-    NoSuchRun(u32),
+    NoSuchRun(RunId),
     /// The run has no such candidate (never drawn).
     #[error("{0} does not exist")]
     Unknown(CandidateKey),
@@ -111,7 +108,7 @@ struct RunState {
 /// Progress of one run, now.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunProgress {
-    pub run: u32,
+    pub run: RunId,
     pub scheme: Scheme,
     pub repeat: u32,
     pub seed: RunSeed,
@@ -135,8 +132,7 @@ pub struct RunProgress {
 /// `offspring_per_generation` candidates).
 pub fn fraction_done(runs: &[RunProgress], settings: &RunSettings) -> f64 {
     let initial = u64::from(settings.initial_population);
-    let offspring = u64::from(settings.offspring_per_generation);
-    let budget = initial + u64::from(settings.generations) * offspring;
+    let budget = settings.candidates_per_run();
     if runs.is_empty() || budget == 0 {
         return 1.0;
     }
@@ -146,7 +142,9 @@ pub fn fraction_done(runs: &[RunProgress], settings: &RunSettings) -> f64 {
             if r.finished {
                 budget
             } else {
-                u64::from(r.initial_passed).min(initial) + u64::from(r.generation) * offspring
+                // The initial population as far as it has come, then whole generations.
+                u64::from(r.initial_passed).min(initial) + settings.candidates_by(r.generation)
+                    - initial
             }
         })
         .sum();
@@ -160,7 +158,7 @@ pub struct Scheduler {
     runs: Vec<RunState>,
     /// Results (and lost leases) read back from the database, used when the candidate is
     /// drawn again after a restart.
-    stored: HashMap<(i64, u64, u32), StoredPending>,
+    stored: HashMap<CandidateKey, StoredPending>,
     lease: Duration,
     max_attempts: u32,
     cursor: usize,
@@ -195,7 +193,14 @@ impl Scheduler {
                 .collect(),
             stored: stored
                 .into_iter()
-                .map(|p| ((p.run, p.number.0, p.generation), p))
+                .map(|p| {
+                    let key = CandidateKey {
+                        run: p.run,
+                        generation: p.generation,
+                        number: p.number,
+                    };
+                    (key, p)
+                })
                 .collect(),
             lease,
             max_attempts,
@@ -312,7 +317,7 @@ impl Scheduler {
             started: false,
         };
         let key = CandidateKey {
-            run: i as u32,
+            run: RunId::from_index(i),
             generation: p.generation,
             number: CandidateNumber(number),
         };
@@ -336,7 +341,7 @@ impl Scheduler {
         if self.answered(key) {
             return Ok(Accepted::Duplicate);
         }
-        let i = key.run as usize;
+        let i = key.run.index();
         let r = self.runs.get_mut(i).ok_or(Refusal::NoSuchRun(key.run))?;
         let number = key.number.0;
         match r.step.get_mut(&number) {
@@ -349,7 +354,7 @@ impl Scheduler {
                     generation: p.generation,
                     attempts: p.attempts,
                     outcome,
-                    worker: Some(worker.0),
+                    worker: Some(worker),
                     seconds,
                 });
                 self.advance(i);
@@ -404,7 +409,8 @@ impl Scheduler {
 
     /// Draws no initial candidate of run `i` numbered `limit` or more: a replay of stored
     /// history (`verify`) stops where the history does.
-    pub fn limit_draws(&mut self, i: usize, limit: u64) {
+    pub fn limit_draws(&mut self, run: RunId, limit: u64) {
+        let i = run.index();
         if let Some(r) = self.runs.get_mut(i) {
             r.draw_limit = limit;
         }
@@ -413,7 +419,7 @@ impl Scheduler {
     /// Whether `key` needs no result any more: it has one, or was applied or dropped. A
     /// result for it is a duplicate, acknowledged and ignored.
     pub fn answered(&self, key: CandidateKey) -> bool {
-        let Some(r) = self.runs.get(key.run as usize) else {
+        let Some(r) = self.runs.get(key.run.index()) else {
             return false;
         };
         let number = key.number.0;
@@ -466,7 +472,7 @@ impl Scheduler {
                 {
                     if f(worker, expires, started) {
                         out.push(CandidateKey {
-                            run: i as u32,
+                            run: RunId::from_index(i),
                             generation: p.generation,
                             number: CandidateNumber(*n),
                         });
@@ -486,7 +492,7 @@ impl Scheduler {
         lost: Option<&str>,
     ) {
         let max_attempts = self.max_attempts;
-        let i = key.run as usize;
+        let i = key.run.index();
         let Some(r) = self.runs.get_mut(i) else {
             return;
         };
@@ -539,14 +545,14 @@ impl Scheduler {
                 number: key.number,
                 generation: p.generation,
                 attempts: p.attempts,
-                worker: worker.0,
+                worker,
             });
         }
     }
 
     fn pending_mut(&mut self, key: CandidateKey) -> Option<&mut Pending> {
         self.runs
-            .get_mut(key.run as usize)?
+            .get_mut(key.run.index())?
             .step
             .get_mut(&key.number.0)
             .filter(|p| p.generation == key.generation)
@@ -565,7 +571,7 @@ impl Scheduler {
                     .filter(|p| matches!(p.state, State::Resolved(_)))
                     .count() as u64;
                 RunProgress {
-                    run: i as u32,
+                    run: RunId::from_index(i),
                     scheme: r.record.spec.scheme,
                     repeat: r.record.spec.repeat,
                     seed: r.record.spec.seed,
@@ -581,7 +587,7 @@ impl Scheduler {
     }
 
     /// A run's record (position and library), for tests and tools.
-    pub fn run(&self, i: usize) -> Option<&RunRecord> {
-        self.runs.get(i).map(|r| &r.record)
+    pub fn run(&self, run: RunId) -> Option<&RunRecord> {
+        self.runs.get(run.index()).map(|r| &r.record)
     }
 }

@@ -67,7 +67,12 @@ impl Scheduler {
     fn add(&mut self, i: usize, number: u64, generation: u32, genome: Genome) {
         let run = self.runs[i].record.id;
         let scheme = self.runs[i].record.spec.scheme;
-        let (attempts, state) = match self.stored.remove(&(run, number, generation)) {
+        let key = CandidateKey {
+            run,
+            generation,
+            number: CandidateNumber(number),
+        };
+        let (attempts, state) = match self.stored.remove(&key) {
             Some(stored) => (
                 stored.attempts,
                 stored.outcome.map_or(State::Waiting, State::Resolved),

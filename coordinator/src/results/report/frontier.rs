@@ -107,7 +107,7 @@ pub(super) fn frontier(
                 _ => (Cell::Empty, Cell::Empty),
             };
             vec![
-                count(r.id as u64),
+                count(u64::from(r.id.0)),
                 text(r.scheme.name()),
                 count(u64::from(cell.0)),
                 text(el.shortfall.name()),

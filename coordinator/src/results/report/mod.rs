@@ -14,12 +14,12 @@ mod table;
 use crate::qd::library::{GenerationStats, InfeasibleLibrary, Library};
 use crate::results::analysis::summary::{summarise, RunResult, Summary};
 use std::fmt::Write;
-use strider_common::{Experiment, Genome, Scheme};
+use strider_common::{Experiment, Genome, RunId, Scheme};
 use svg::escape;
 
 /// One run as the report reads it.
 pub struct RunData {
-    pub id: i64,
+    pub id: RunId,
     pub scheme: Scheme,
     pub repeat: u32,
     /// Its library now.
@@ -76,7 +76,7 @@ pub struct Inputs<'a> {
     /// Every run.
     pub runs: &'a [RunData],
     /// The run whose library is drawn (its id).
-    pub chosen: i64,
+    pub chosen: RunId,
     /// The reference design marked on the library map, with its name.
     pub reference: Option<(&'a Genome, &'a str)>,
 }

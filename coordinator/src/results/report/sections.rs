@@ -98,9 +98,7 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
     page.push_str("<p>The QD score is the quality-diversity field's headline figure: the sum of fitness over the filled cells of the feasible library (as pyribs defines it, with offset 0: fitness, 1 / cost of transport, is never negative). Evaluations are candidates: the initial population, then offspring per generation (an ES candidate is up to 21 trials).</p>\n");
     // Candidates evaluated by the end of generation g (the initial draws refused before
     // simulating aside).
-    let evaluations = |g: f64| {
-        f64::from(e.run.initial_population) + g * f64::from(e.run.offspring_per_generation)
-    };
+    let evaluations = |g: f64| e.run.candidates_by(g as u32) as f64;
     let mut gen_rows = Vec::new();
     for (stem, title, label, figure) in FIGURES {
         let s = series(e, runs, figure);
