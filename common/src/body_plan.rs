@@ -414,7 +414,7 @@ mod tests {
     use proptest::prelude::*;
 
     pub(crate) fn max_genome() -> Genome {
-        serde_json::from_str(include_str!("../../designs/max.json")).unwrap()
+        crate::reference::max()
     }
 
     proptest! {

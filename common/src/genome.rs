@@ -316,7 +316,7 @@ mod tests {
     use super::*;
 
     fn max_json() -> String {
-        include_str!("../../designs/max.json").to_string()
+        crate::reference::MAX_JSON.to_string()
     }
 
     fn parse_err(json: &str) -> String {

@@ -249,7 +249,7 @@ mod tests {
     use crate::genome::Genome;
 
     fn max() -> (Genome, BodyPlan) {
-        let g: Genome = serde_json::from_str(include_str!("../../designs/max.json")).unwrap();
+        let g = crate::reference::max();
         let plan = BodyPlan::new(&g.morphology, 10.0);
         (g, plan)
     }

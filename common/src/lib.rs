@@ -20,6 +20,7 @@ pub mod outcome;
 pub mod params;
 pub mod pose;
 pub mod precheck;
+pub mod reference;
 pub mod rng;
 pub mod urdf;
 pub mod variation;

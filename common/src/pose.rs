@@ -97,11 +97,10 @@ impl StartPose {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::genome::Genome;
 
     #[test]
     fn lowest_point_is_on_the_ground_and_height_is_the_top() {
-        let g: Genome = serde_json::from_str(include_str!("../../designs/max.json")).unwrap();
+        let g = crate::reference::max();
         let plan = BodyPlan::new(&g.morphology, 10.0);
         let pose = StartPose::new(&plan, &g.controller);
         assert!(pose.lowest_point.y.abs() < 1e-12);

@@ -1,5 +1,6 @@
 //! Helpers for the integration tests: building, locating and running the real binaries.
 
+pub mod coordinator;
 pub mod slurm;
 
 use std::path::PathBuf;

@@ -13,6 +13,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 use strider_proto::v1::{self, worker_message, worker_service_client::WorkerServiceClient};
+use strider_tests::coordinator::{serve_command, start_serving};
 use strider_tests::{
     assert_same_library, binary, candidate_rows, export, free_port, run_builds, temp_dir, Process,
 };
@@ -59,35 +60,19 @@ impl Schedule {
 }
 
 fn serve(dir: &Path, db: &Path, port: u16) -> Process {
-    let mut cmd = Command::new(binary("strider-coordinator"));
-    cmd.args([
-        "serve",
-        "--db",
-        db.to_str().unwrap(),
-        "--experiment",
-        FIXTURE,
-    ])
-    .args(["--listen", &format!("127.0.0.1:{port}")])
-    .args([
-        "--token-file",
-        strider_tests::secret_file(dir, SECRET).to_str().unwrap(),
-    ])
-    .args(["--lease-seconds", "1", "--progress-every", "0.5"])
-    // Events come 20 to 220 ms apart, shorter than a trial here, so the schedule can kill
-    // or stall the worker simulating one candidate, then the next that takes it, and so
-    // on: by the attempt rule (distinct workers dying while simulating it) that candidate
-    // rightly fails after --max-attempts (seen in CI: SIGKILL, SIGKILL, SIGSTOP in a row).
-    // Above the number of worker events no candidate can; the rule itself is tested in
-    // the scheduler's and the service's tests. Here the point is that faults change
-    // nothing else.
-    .args(["--max-attempts", &(WORKER_EVENTS + 1).to_string()]);
-    let p = Process::spawn("coordinator", cmd);
-    p.wait_for_line(
-        "saying it serves",
-        |l| l.contains("serving experiment"),
-        START,
-    );
-    p
+    let listen = format!("127.0.0.1:{port}");
+    let secret = strider_tests::secret_file(dir, SECRET);
+    let mut cmd = serve_command(FIXTURE, db, &listen, &secret);
+    cmd.args(["--lease-seconds", "1", "--progress-every", "0.5"])
+        // Events come 20 to 220 ms apart, shorter than a trial here, so the schedule can kill
+        // or stall the worker simulating one candidate, then the next that takes it, and so
+        // on: by the attempt rule (distinct workers dying while simulating it) that candidate
+        // rightly fails after --max-attempts (seen in CI: SIGKILL, SIGKILL, SIGSTOP in a row).
+        // Above the number of worker events no candidate can; the rule itself is tested in
+        // the scheduler's and the service's tests. Here the point is that faults change
+        // nothing else.
+        .args(["--max-attempts", &(WORKER_EVENTS + 1).to_string()]);
+    start_serving(cmd).0
 }
 
 fn worker(dir: &Path, url: &str, name: &str) -> Process {

@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
+use strider_tests::coordinator::{serve_command, start_serving};
 use strider_tests::{binary, export, run, temp_dir, workspace_root, Process};
 
 const FIXTURE: &str = "tests/fixtures/service.toml";
@@ -38,25 +39,9 @@ fn status_and_a_generated_python_client_read_progress_and_elites() {
     let secret = dir.join("secret");
     std::fs::write(&secret, SECRET).unwrap();
     let db = dir.join("clients.db");
-    let mut cmd = Command::new(binary("strider-coordinator"));
-    cmd.args([
-        "serve",
-        "--db",
-        db.to_str().unwrap(),
-        "--experiment",
-        FIXTURE,
-    ])
-    .args([
-        "--listen",
-        "127.0.0.1:0",
-        "--keep-serving",
-        "--progress-every",
-        "0.1",
-    ])
-    .args(["--token-file", secret.to_str().unwrap()]);
-    let coordinator = Process::spawn("coordinator", cmd);
-    let line = coordinator.wait_for_line("serving", |l| l.contains("serving experiment"), LONG);
-    let url = line.rsplit(" on ").next().unwrap().trim().to_string();
+    let mut cmd = serve_command(FIXTURE, &db, "127.0.0.1:0", &secret);
+    cmd.args(["--keep-serving", "--progress-every", "0.1"]);
+    let (coordinator, url) = start_serving(cmd);
     let mut w = Command::new(binary("strider-worker"));
     w.args([
         "--connect",

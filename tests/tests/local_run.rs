@@ -4,7 +4,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
-use strider_coordinator::db::Db;
+use strider_tests::coordinator::integrity;
 use strider_tests::{
     assert_same_library, binary, export, run, run_ok, sqlite, temp_dir, workspace_root,
 };
@@ -28,18 +28,6 @@ fn run_to_end(db: &Path, workers: &str) {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-fn integrity(db: &Path) -> String {
-    tokio::runtime::Runtime::new().unwrap().block_on(async {
-        Db::open(db, false)
-            .await
-            .unwrap()
-            .integrity_check()
-            .await
-            .unwrap()
-            .join("\n")
-    })
 }
 
 #[test]

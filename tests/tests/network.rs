@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
-use strider_coordinator::db::Db;
+use strider_tests::coordinator::{integrity, wait_serving};
 use strider_tests::{
     assert_same_library, binary, export, free_port, ip, ip_ok, library_run_builds, secret_file,
     skip_without, temp_dir, workspace_root, Process,
@@ -132,11 +132,7 @@ fn a_worker_cut_off_and_reconnected_changes_nothing() {
         .args(["--token-file", secret.to_str().unwrap()])
         .args(["--lease-seconds", "3", "--progress-every", "0.2"]);
     let mut coordinator = Process::spawn("coordinator", cmd);
-    coordinator.wait_for_line(
-        "saying it serves",
-        |l| l.contains("serving experiment"),
-        START,
-    );
+    wait_serving(&coordinator);
 
     let worker = |w: u32| {
         let mut cmd = net.command(&format!("w{w}"), &binary("strider-worker"));
@@ -182,16 +178,7 @@ fn a_worker_cut_off_and_reconnected_changes_nothing() {
         );
     }
     assert_same_library(&export(&db), &expected);
-    let integrity = tokio::runtime::Runtime::new().unwrap().block_on(async {
-        Db::open(&db, false)
-            .await
-            .unwrap()
-            .integrity_check()
-            .await
-            .unwrap()
-            .join("\n")
-    });
-    assert_eq!(integrity, "ok");
+    assert_eq!(integrity(&db), "ok");
     drop(net);
     std::fs::remove_dir_all(&dir).unwrap();
 }

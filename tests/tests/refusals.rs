@@ -14,6 +14,7 @@ use strider_proto::v1::{
     self, client_service_client::ClientServiceClient, coordinator_message, worker_message,
     worker_service_client::WorkerServiceClient, CoordinatorMessage, WorkerMessage,
 };
+use strider_tests::coordinator::{serve_command, start_serving};
 use strider_tests::{binary, temp_dir, Process};
 use strider_worker::evaluate::evaluate;
 use tokio::sync::mpsc;
@@ -158,27 +159,7 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
     let secret = dir.join("secret");
     std::fs::write(&secret, SECRET).unwrap();
     let db = dir.join("refusals.db");
-    let mut cmd = Command::new(binary("strider-coordinator"));
-    cmd.args([
-        "serve",
-        "--db",
-        db.to_str().unwrap(),
-        "--experiment",
-        FIXTURE,
-    ])
-    .args([
-        "--listen",
-        "127.0.0.1:0",
-        "--token-file",
-        secret.to_str().unwrap(),
-    ]);
-    let coordinator = Process::spawn("coordinator", cmd);
-    let line = coordinator.wait_for_line(
-        "serving",
-        |l| l.contains("serving experiment"),
-        Duration::from_secs(60),
-    );
-    let url = line.rsplit(" on ").next().unwrap().trim().to_string();
+    let (coordinator, url) = start_serving(serve_command(FIXTURE, &db, "127.0.0.1:0", &secret));
 
     tokio::runtime::Runtime::new().unwrap().block_on(async {
         let channel = Channel::from_shared(url.clone())
@@ -442,13 +423,7 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
         ])
         .args(["--listen", "127.0.0.1:0", "--handshake-seconds", "1"])
         .args(["--token-file", secret.to_str().unwrap()]);
-    let coordinator = Process::spawn("coordinator", cmd);
-    let line = coordinator.wait_for_line(
-        "serving",
-        |l| l.contains("serving experiment"),
-        Duration::from_secs(60),
-    );
-    let url = line.rsplit(" on ").next().unwrap().trim().to_string();
+    let (coordinator, url) = start_serving(cmd);
     let addr = url.trim_start_matches("http://").to_string();
 
     // Three times the descriptors the process has; the kernel completes each TCP

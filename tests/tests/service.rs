@@ -7,6 +7,7 @@ use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Duration;
 use strider_coordinator::db::Db;
+use strider_tests::coordinator::{integrity, serve_command, start_serving};
 use strider_tests::{
     assert_same_library, binary, export, free_port, library_run_builds, temp_dir, Process,
 };
@@ -34,31 +35,11 @@ fn serve(dir: &Path, db: &Path, port: u16, lease: &str) -> (Process, String) {
 }
 
 fn serve_with(dir: &Path, db: &Path, port: u16, lease: &str, extra: &[&str]) -> (Process, String) {
-    let mut cmd = Command::new(binary("strider-coordinator"));
-    cmd.args([
-        "serve",
-        "--db",
-        db.to_str().unwrap(),
-        "--experiment",
-        FIXTURE,
-    ])
-    .args(["--listen", &format!("127.0.0.1:{port}")])
-    .args(["--token-file", secret_file(dir).to_str().unwrap()])
-    .args(["--lease-seconds", lease, "--progress-every", "0.1"])
-    .args(extra);
-    let p = Process::spawn("coordinator", cmd);
-    let line = p.wait_for_line(
-        "saying it serves",
-        |l| l.contains("serving experiment"),
-        START,
-    );
-    let url = line
-        .rsplit(" on ")
-        .next()
-        .expect("the line names the URL")
-        .trim()
-        .to_string();
-    (p, url)
+    let listen = format!("127.0.0.1:{port}");
+    let mut cmd = serve_command(FIXTURE, db, &listen, &secret_file(dir));
+    cmd.args(["--lease-seconds", lease, "--progress-every", "0.1"])
+        .args(extra);
+    start_serving(cmd)
 }
 
 fn worker(dir: &Path, url: &str, name: &str) -> Process {
@@ -67,18 +48,6 @@ fn worker(dir: &Path, url: &str, name: &str) -> Process {
         .args(["--token-file", secret_file(dir).to_str().unwrap()])
         .args(["--max-backoff-seconds", "0.5", "--drain-seconds", "5"]);
     Process::spawn(name, cmd)
-}
-
-fn integrity(db: &Path) -> String {
-    tokio::runtime::Runtime::new().unwrap().block_on(async {
-        Db::open(db, false)
-            .await
-            .unwrap()
-            .integrity_check()
-            .await
-            .unwrap()
-            .join("\n")
-    })
 }
 
 fn finish(coordinator: &mut Process) {

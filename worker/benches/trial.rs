@@ -3,7 +3,6 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::num::NonZeroUsize;
-use std::path::Path;
 use strider_common::params::M;
 use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
@@ -13,7 +12,7 @@ use strider_worker::evaluate::evaluate;
 use strider_worker::sim::trial::{run_trial, TrialEnd};
 
 fn max() -> Genome {
-    Genome::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json")).unwrap()
+    strider_common::reference::max()
 }
 
 /// MAX with `n` legs per side and a hip slow enough that neighbours never meet, so every

@@ -1,17 +1,15 @@
 //! Runs MAX's STATIC trial N times (default 10), for profilers:
 //! `valgrind --tool=callgrind target/release/examples/profile_trial 10 [SUBSTEPS]`.
 
-use std::path::Path;
 use strider_common::EvalContext;
-use strider_common::{BodyPlan, Controller, Genome};
+use strider_common::{BodyPlan, Controller};
 use strider_worker::sim::trial::run_trial;
 
 fn main() {
     let n: usize = std::env::args()
         .nth(1)
         .map_or(10, |a| a.parse().expect("a count"));
-    let g = Genome::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
-        .expect("MAX loads");
+    let g = strider_common::reference::max();
     let mut ctx = EvalContext::paper();
     // An optional second argument: physics steps per control step.
     if let Some(s) = std::env::args().nth(2) {

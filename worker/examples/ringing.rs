@@ -6,10 +6,7 @@ use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Genome, Scheme, StartPose};
 use strider_worker::sim::world::RobotWorld;
 fn main() {
-    let mut genomes = vec![(
-        "MAX".to_string(),
-        Genome::load(std::path::Path::new("designs/max.json")).unwrap(),
-    )];
+    let mut genomes = vec![("MAX".to_string(), strider_common::reference::max())];
     for i in 0..200u64 {
         let s = CandidateSeed::new(1, i);
         genomes.push((

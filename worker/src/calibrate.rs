@@ -9,11 +9,9 @@ use crate::sim::trial::{run_trial_from, TrialEnd};
 use std::num::NonZeroUsize;
 use std::time::{Duration, Instant};
 use strider_common::experiment::{RunSettings, TrialLimits};
-use strider_common::{BodyPlan, Controller, DesignBrief, Genome, StartPose};
+use strider_common::{BodyPlan, Controller, DesignBrief, StartPose};
 
 /// The reference design: it walks upright under the STATIC controller.
-const MAX_JSON: &str = include_str!("../../designs/max.json");
-
 /// What a calibration measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Calibration {
@@ -54,7 +52,7 @@ pub fn calibrate(
     threads: NonZeroUsize,
     at_least: Duration,
 ) -> Calibration {
-    let genome: Genome = serde_json::from_str(MAX_JSON).expect("designs/max.json is a genome");
+    let genome = strider_common::reference::max();
     let plan = BodyPlan::new(&genome.morphology, brief.payload);
     let controller = Controller::static_default();
     let pose = StartPose::new(&plan, &controller);

@@ -17,8 +17,7 @@ use strider_worker::sim::world::RobotWorld;
 use strider_worker::trial_outcome::evaluate_controller;
 
 fn max() -> Genome {
-    Genome::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/max.json"))
-        .unwrap()
+    strider_common::reference::max()
 }
 
 fn ctx() -> EvalContext {

@@ -6,7 +6,6 @@ use super::Exit;
 use crate::results::report::{png, Inputs, RunData};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
-use strider_common::Genome;
 use strider_common::RunId;
 
 /// Arguments of `report`.
@@ -22,9 +21,6 @@ pub struct ReportArgs {
     #[arg(long)]
     run: Option<RunId>,
 }
-
-/// The reference design MAX, marked on library maps.
-const MAX_DESIGN: &str = include_str!("../../../designs/max.json");
 
 /// Writes the report into `--out`.
 pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
@@ -58,7 +54,7 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map_or(RunId(0), |(id, _)| id)
     });
-    let max: Genome = serde_json::from_str(MAX_DESIGN).context("the built-in MAX design")?;
+    let max = strider_common::reference::max();
     let report = crate::results::report::build(&Inputs {
         experiment: &experiment,
         runs: &runs,
