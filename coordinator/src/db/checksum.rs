@@ -313,6 +313,23 @@ impl Fnv1a {
     }
 }
 
+/// The pending row's checksum: the writer stores it, the reader checks it.
+impl super::rows::PendingRow {
+    /// The checksum of its columns, as the writer stores it and the reader checks it.
+    pub fn computed_checksum(&self) -> i64 {
+        pending_checksum(
+            self.run_id,
+            self.number,
+            self.generation,
+            &self.status,
+            self.attempts,
+            self.worker,
+            self.outcome.as_deref(),
+            self.seconds,
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

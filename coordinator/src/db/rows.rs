@@ -166,22 +166,6 @@ pub(super) struct PendingRow {
     pub checksum: Option<i64>,
 }
 
-impl PendingRow {
-    /// The checksum of its columns, as the writer stores it and the reader checks it.
-    pub fn computed_checksum(&self) -> i64 {
-        super::checksum::pending_checksum(
-            self.run_id,
-            self.number,
-            self.generation,
-            &self.status,
-            self.attempts,
-            self.worker,
-            self.outcome.as_deref(),
-            self.seconds,
-        )
-    }
-}
-
 impl TryFrom<PendingRow> for StoredPending {
     type Error = DbError;
 
