@@ -8,8 +8,9 @@ use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
 use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
 use strider_common::{RunId, WorkerId};
-use strider_coordinator::qd::changes::{RunRecord, Write};
+use strider_coordinator::qd::changes::Write;
 use strider_coordinator::qd::library::{InfeasibleLibrary, Library};
+use strider_coordinator::qd::run::RunRecord;
 use strider_coordinator::qd::scheduler::{
     fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler,
 };
@@ -161,6 +162,40 @@ fn unknown_candidates_and_runs_are_refused() {
     assert_eq!(
         s.accept(WorkerId(1), no_run, o, 0.0),
         Err(Refusal::NoSuchRun(RunId(7)))
+    );
+}
+
+#[test]
+fn a_valid_outcome_in_a_cell_its_features_do_not_fall_in_is_refused_and_changes_nothing() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let (a, good) = std::iter::from_fn(|| s.lease(WorkerId(1), now, 1).pop())
+        .take(10_000)
+        .map(|a| {
+            let o = outcome_of(&e, &a);
+            (a, o)
+        })
+        .find(|(_, o)| matches!(o, Outcome::Valid { .. }))
+        .expect("a valid design among the first leases");
+    let mut bad = good.clone();
+    let Outcome::Valid { cell, .. } = &mut bad else {
+        unreachable!()
+    };
+    let right = *cell;
+    cell.0 = (right.0 + 1) % e.features.cell_count();
+    assert_eq!(
+        s.accept(WorkerId(1), a.key, bad, 0.0),
+        Err(Refusal::CellMismatch {
+            stated: (right.0 + 1) % e.features.cell_count(),
+            expected: Some(right.0),
+        })
+    );
+    // Still leased and unanswered: the true result is taken as the first.
+    assert!(!s.answered(a.key));
+    assert_eq!(
+        s.accept(WorkerId(1), a.key, good, 0.0),
+        Ok(Accepted::Stored)
     );
 }
 

@@ -2,7 +2,7 @@
 //! holds another experiment or is inconsistent), or to read it (read-only if need be).
 
 use crate::db::{build_id, first_difference, Db};
-use crate::qd::changes::RunRecord;
+use crate::qd::run::RunRecord;
 use anyhow::{bail, Context};
 use std::path::Path;
 use strider_common::Experiment;

@@ -7,8 +7,9 @@
 use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::{column, PendingRow};
 use super::{run_column, standing_figure, worker_column, Db, DbError};
-use crate::qd::changes::{RunPosition, StepCommit, Write};
+use crate::qd::changes::{StepCommit, Write};
 use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::run::RunPosition;
 use std::collections::HashMap;
 use strider_common::{InvalidReason, Outcome, RunId};
 
@@ -523,7 +524,8 @@ async fn write_step(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::qd::changes::{RunPosition, StepCommit};
+    use crate::qd::changes::StepCommit;
+    use crate::qd::run::RunPosition;
     use strider_common::ids::CandidateNumber;
     use strider_common::WorkerId;
 

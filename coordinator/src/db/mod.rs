@@ -60,7 +60,8 @@ pub enum DbError {
 
 pub use strider_common::build_id;
 
-use crate::qd::changes::{RunRecord, StoredCandidate, StoredPending};
+use crate::qd::changes::{StoredCandidate, StoredPending};
+use crate::qd::run::RunRecord;
 use rows::{
     EliteRow, EliteWithOutcomeRow, InfeasibleRow, InfeasibleWithOutcomeRow, PendingRow, RunRow,
 };

@@ -1,35 +1,12 @@
 //! What the scheduler hands to storage and takes back on a restart: the changes it emits
-//! (results, lost leases, applied steps, worker sessions), the runs' state, and the
-//! pending candidates of an open step. Plain data; the scheduler and the database both
+//! (results, lost leases, applied steps, worker sessions) and the pending candidates of
+//! an open step (a run's own state is `qd::run`). Plain data; the scheduler and the database both
 //! depend on it, neither on the other.
 
-use crate::qd::library::{
-    Elite, GenerationStats, InfeasibleElite, InfeasibleLibrary, InfeasiblePlacement, Library,
-    Placement,
-};
-use strider_common::experiment::RunSpec;
+use crate::qd::library::{Elite, GenerationStats, InfeasibleElite, InfeasiblePlacement, Placement};
+use crate::qd::run::RunPosition;
 use strider_common::ids::CandidateNumber;
 use strider_common::{CellIndex, Genome, Outcome, RunId, WorkerId};
-
-/// One run's persistent state.
-#[derive(Clone, Debug)]
-pub struct RunRecord {
-    /// Row id (0-based, in experiment order).
-    pub id: RunId,
-    /// Scheme, repeat and seed.
-    pub spec: RunSpec,
-    /// Last committed generation (0: the initial population, complete or not).
-    pub generation: u32,
-    /// Candidates of the initial population that count toward its size so far.
-    pub initial_passed: u32,
-    /// First candidate number not yet committed.
-    pub next_candidate: u64,
-    /// Whether the run has done all its generations.
-    pub finished: bool,
-    pub library: Library,
-    /// Its infeasible library (empty under the paper's method).
-    pub infeasible: InfeasibleLibrary,
-}
 
 /// One evaluated candidate applied to its run's library, ready to store.
 #[derive(Clone, Debug)]
@@ -43,51 +20,6 @@ pub struct AppliedCandidate {
     pub placement: Placement,
     /// What it did to the infeasible library, if it was offered there.
     pub infeasible: Option<InfeasiblePlacement>,
-}
-
-/// Where a run stands (the `runs` row).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RunPosition {
-    /// Last completed generation.
-    pub generation: u32,
-    /// Valid candidates in the initial population so far.
-    pub initial_passed: u32,
-    /// First candidate number not yet applied.
-    pub next_candidate: u64,
-    /// Whether the run has done all its generations.
-    pub finished: bool,
-}
-
-impl RunRecord {
-    /// A run that has not begun: no candidate, empty libraries.
-    pub fn new(id: RunId, spec: RunSpec) -> Self {
-        Self {
-            id,
-            spec,
-            generation: 0,
-            initial_passed: 0,
-            next_candidate: 0,
-            finished: false,
-            library: Library::new(),
-            infeasible: InfeasibleLibrary::default(),
-        }
-    }
-
-    /// `counts` completed with both libraries' figures.
-    pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
-        self.infeasible
-            .summary(self.library.summary(counts, cell_count), &self.library)
-    }
-
-    /// Its position.
-    pub fn position(&self) -> RunPosition {
-        RunPosition {
-            generation: self.generation,
-            initial_passed: self.initial_passed,
-            next_candidate: self.next_candidate,
-            finished: self.finished,
-        }
-    }
 }
 
 /// A step of a run applied to its library: stored in the same transaction as everything

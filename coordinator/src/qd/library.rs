@@ -293,27 +293,6 @@ impl Library {
         }
     }
 
-    /// Applies a whole generation in candidate order and returns its statistics. The caller
-    /// passes results sorted by candidate number, so the outcome never depends on which
-    /// worker finished first.
-    pub fn apply_generation<'a>(
-        &mut self,
-        results: impl IntoIterator<Item = (CandidateNumber, &'a Genome, &'a Outcome)>,
-        cell_count: u32,
-    ) -> GenerationStats {
-        let mut stats = GenerationStats::default();
-        let mut last = None;
-        for (candidate, genome, outcome) in results {
-            assert!(
-                last < Some(candidate),
-                "results must come in increasing candidate order"
-            );
-            last = Some(candidate);
-            stats.record(self.apply(candidate, genome, outcome));
-        }
-        self.summary(stats, cell_count)
-    }
-
     /// `counts` completed with the library's coverage and fitness figures.
     pub fn summary(&self, counts: GenerationStats, cell_count: u32) -> GenerationStats {
         let mut stats = counts;

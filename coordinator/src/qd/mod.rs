@@ -6,5 +6,6 @@
 pub mod changes;
 pub mod evolution;
 pub mod library;
+pub mod run;
 pub mod scheduler;
 pub mod verify;

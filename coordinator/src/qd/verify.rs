@@ -8,8 +8,9 @@
 //! stored outcomes are what the physics gives is the other half (re-simulating a sample,
 //! done by the command line, which owns the simulator). Plain functions over plain data.
 
-use crate::qd::changes::{RunRecord, StoredCandidate, Write};
+use crate::qd::changes::{StoredCandidate, Write};
 use crate::qd::library::GenerationStats;
+use crate::qd::run::RunRecord;
 use crate::qd::scheduler::Scheduler;
 use std::collections::HashMap;
 use std::collections::HashSet;

@@ -3,8 +3,8 @@
 //! named on the command line (`RUN:CELL` or `best`). Plain functions over plain data.
 
 use crate::db::StoredInfeasible;
-use crate::qd::changes::RunRecord;
 use crate::qd::library::Elite;
+use crate::qd::run::RunRecord;
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::features::FEATURE_NAMES;

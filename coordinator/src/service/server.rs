@@ -8,7 +8,7 @@ use super::metrics::serve_metrics;
 use super::worker_api::WorkerApi;
 use super::writer::{run_writer, WriterMessage};
 use super::{Shared, Throughput};
-use crate::db::{canonical_toml, Db};
+use crate::db::{canonical_toml, Db, DbError};
 use crate::qd::scheduler::Scheduler;
 use std::future::Future;
 use std::net::SocketAddr;
@@ -115,44 +115,7 @@ pub async fn serve(
     opts: ServeOptions,
     stop: impl Future<Output = ()> + Send,
 ) -> anyhow::Result<Ended> {
-    let runs = db.runs().await?;
-    let stored = db.pending().await?;
-    let next_worker = db.next_worker_id().await?;
-    let left_open = db
-        .close_sessions_left_open("the coordinator stopped first (closed when it started again)")
-        .await?;
-    if left_open > 0 {
-        tracing::info!("{left_open} worker sessions of a coordinator that stopped first closed");
-    }
-    let scheduler = Scheduler::new(
-        experiment.clone(),
-        runs,
-        stored,
-        opts.lease,
-        opts.max_attempts,
-    );
-    let (writer_tx, writer_rx) = mpsc::unbounded_channel();
-    let backlog = Arc::new(super::Backlog::default());
-    let mut writer = tokio::spawn(run_writer(db.clone(), writer_rx, backlog.clone()));
-    let shared = Arc::new(Shared {
-        scheduler: Mutex::new(scheduler),
-        writer: writer_tx,
-        backlog,
-        work: Notify::new(),
-        steps: watch::Sender::new(0),
-        finished: watch::Sender::new(false),
-        workers: AtomicU32::new(0),
-        next_worker: AtomicU64::new(next_worker.0),
-        throughput: Mutex::new(Throughput::default()),
-        started: Instant::now(),
-        pace: Mutex::new(Default::default()),
-        experiment_toml: canonical_toml(&experiment),
-        db,
-    });
-    // Store what opening the steps wrote (draws settled without a trial, new generations).
-    shared.with(true, |_| ());
-    // Where this process began, for its estimate of the time left.
-    let _ = shared.eta(shared.fraction_done());
+    let (shared, mut writer) = start_scheduler(db, &experiment, &opts).await?;
 
     let addr = listener.local_addr()?;
     let url = worker_url(addr);
@@ -161,31 +124,7 @@ pub async fn serve(
             .map_err(|e| anyhow::anyhow!("address file {}: {e}", path.display()))?;
     }
     tracing::info!("serving experiment {:?} on {url}", experiment.name);
-
-    let (health, health_service) = tonic_health::server::health_reporter();
-    for name in ["strider.v1.WorkerService", "strider.v1.ClientService", ""] {
-        health
-            .set_service_status(name, tonic_health::ServingStatus::Serving)
-            .await;
-    }
-    // Reflection in both versions (Python's reflection client and older grpcurl ask for
-    // v1alpha), listing health as well as Strider's services.
-    let reflected = || {
-        tonic_reflection::server::Builder::configure()
-            .register_encoded_file_descriptor_set(strider_proto::FILE_DESCRIPTOR_SET)
-            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-    };
-    let reflection = reflected().build_v1()?;
-    let reflection_v1alpha = reflected().build_v1alpha()?;
-    let interceptor = super::auth::interceptor(&secret);
-    let workers = WorkerServiceServer::new(WorkerApi {
-        shared: shared.clone(),
-    })
-    .max_decoding_message_size(MAX_MESSAGE_BYTES);
-    let clients = ClientServiceServer::new(ClientApi {
-        shared: shared.clone(),
-    })
-    .max_decoding_message_size(MAX_MESSAGE_BYTES);
+    let router = grpc_router(&shared, &secret).await?;
 
     let mut tasks = background(shared.clone(), &opts);
     if let Some(addr) = opts.metrics {
@@ -212,34 +151,12 @@ pub async fn serve(
     let mut finished = shared.finished.subscribe();
     let keep_serving = opts.keep_serving;
     let (server_stop_tx, server_stop_rx) = oneshot::channel::<()>();
-    // (No-delay is set per connection by `Incoming`: the builder's applies only to the
-    // listener tonic binds itself.)
-    let server = tonic::transport::Server::builder()
-        .http2_keepalive_interval(Some(Duration::from_secs(10)))
-        .http2_keepalive_timeout(Some(Duration::from_secs(20)))
-        .add_service(health_service)
-        .add_service(tonic::service::interceptor::InterceptedService::new(
-            reflection,
-            interceptor.clone(),
-        ))
-        .add_service(tonic::service::interceptor::InterceptedService::new(
-            reflection_v1alpha,
-            interceptor.clone(),
-        ))
-        .add_service(tonic::service::interceptor::InterceptedService::new(
-            workers,
-            interceptor.clone(),
-        ))
-        .add_service(tonic::service::interceptor::InterceptedService::new(
-            clients,
-            interceptor,
-        ))
-        .serve_with_incoming_shutdown(
-            super::incoming::Incoming::new(listener, opts.handshake),
-            async {
-                let _ = server_stop_rx.await;
-            },
-        );
+    let server = router.serve_with_incoming_shutdown(
+        super::incoming::Incoming::new(listener, opts.handshake),
+        async {
+            let _ = server_stop_rx.await;
+        },
+    );
     tokio::pin!(server);
     tokio::pin!(stop);
     let outcome: anyhow::Result<Ended> = loop {
@@ -273,19 +190,141 @@ pub async fn serve(
     let _ = server_stop_tx.send(());
     let _ = tokio::time::timeout(Duration::from_secs(5), &mut server).await;
     let mut ended = outcome?;
+    if wind_down(&shared, &mut writer, &opts).await? {
+        ended = Ended::Finished;
+    }
+    Ok(ended)
+}
+
+/// The database writer task.
+type Writer = tokio::task::JoinHandle<Result<(), DbError>>;
+
+/// Reads the runs and pending results, starts the scheduler and the database writer,
+/// and stores what opening the runs' steps wrote.
+async fn start_scheduler(
+    db: Db,
+    experiment: &Experiment,
+    opts: &ServeOptions,
+) -> anyhow::Result<(Arc<Shared>, Writer)> {
+    let runs = db.runs().await?;
+    let stored = db.pending().await?;
+    let next_worker = db.next_worker_id().await?;
+    let left_open = db
+        .close_sessions_left_open("the coordinator stopped first (closed when it started again)")
+        .await?;
+    if left_open > 0 {
+        tracing::info!("{left_open} worker sessions of a coordinator that stopped first closed");
+    }
+    let scheduler = Scheduler::new(
+        experiment.clone(),
+        runs,
+        stored,
+        opts.lease,
+        opts.max_attempts,
+    );
+    let (writer_tx, writer_rx) = mpsc::unbounded_channel();
+    let backlog = Arc::new(super::Backlog::default());
+    let writer = tokio::spawn(run_writer(db.clone(), writer_rx, backlog.clone()));
+    let shared = Arc::new(Shared {
+        scheduler: Mutex::new(scheduler),
+        writer: writer_tx,
+        backlog,
+        work: Notify::new(),
+        steps: watch::Sender::new(0),
+        finished: watch::Sender::new(false),
+        workers: AtomicU32::new(0),
+        next_worker: AtomicU64::new(next_worker.0),
+        throughput: Mutex::new(Throughput::default()),
+        started: Instant::now(),
+        pace: Mutex::new(Default::default()),
+        experiment_toml: canonical_toml(experiment),
+        db,
+    });
+    // Store what opening the steps wrote (draws settled without a trial, new generations).
+    shared.with(true, |_| ());
+    // Where this process began, for its estimate of the time left.
+    let _ = shared.eta(shared.fraction_done());
+
+    Ok((shared, writer))
+}
+
+/// The gRPC services behind the token: health, reflection, the worker and the client
+/// services.
+async fn grpc_router(
+    shared: &Arc<Shared>,
+    secret: &Secret,
+) -> anyhow::Result<tonic::transport::server::Router> {
+    let (health, health_service) = tonic_health::server::health_reporter();
+    for name in ["strider.v1.WorkerService", "strider.v1.ClientService", ""] {
+        health
+            .set_service_status(name, tonic_health::ServingStatus::Serving)
+            .await;
+    }
+    // Reflection in both versions (Python's reflection client and older grpcurl ask for
+    // v1alpha), listing health as well as Strider's services.
+    let reflected = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(strider_proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection = reflected().build_v1()?;
+    let reflection_v1alpha = reflected().build_v1alpha()?;
+    let interceptor = super::auth::interceptor(secret);
+    let workers = WorkerServiceServer::new(WorkerApi {
+        shared: shared.clone(),
+    })
+    .max_decoding_message_size(MAX_MESSAGE_BYTES);
+    let clients = ClientServiceServer::new(ClientApi {
+        shared: shared.clone(),
+    })
+    .max_decoding_message_size(MAX_MESSAGE_BYTES);
+
+    // (No-delay is set per connection by `Incoming`: the builder's applies only to the
+    // listener tonic binds itself.)
+    let router = tonic::transport::Server::builder()
+        .http2_keepalive_interval(Some(Duration::from_secs(10)))
+        .http2_keepalive_timeout(Some(Duration::from_secs(20)))
+        .add_service(health_service)
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            reflection,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            reflection_v1alpha,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            workers,
+            interceptor.clone(),
+        ))
+        .add_service(tonic::service::interceptor::InterceptedService::new(
+            clients,
+            interceptor,
+        ));
+    Ok(router)
+}
+
+/// After serving: commits everything the scheduler produced, closes the worker sessions
+/// left open, checkpoints the database and copies it if asked; returns whether every run
+/// is finished.
+async fn wind_down(
+    shared: &Arc<Shared>,
+    writer: &mut Writer,
+    opts: &ServeOptions,
+) -> anyhow::Result<bool> {
     // Everything the scheduler produced is committed before returning.
     let (done_tx, done_rx) = oneshot::channel();
     let _ = shared.writer.send(WriterMessage::Flush(done_tx));
     tokio::select! {
         r = done_rx => r.map_err(|_| anyhow::anyhow!("the database writer stopped"))?,
-        r = &mut writer => match r {
+        r = writer => match r {
             Ok(Err(e)) => return Err(e.into()),
             _ => anyhow::bail!("the database writer stopped"),
         },
     }
-    if shared.with(false, |s| s.finished()) {
-        strider_process::note!("{}", progress_line(&shared));
-        ended = Ended::Finished;
+    let finished = shared.with(false, |s| s.finished());
+    if finished {
+        strider_process::note!("{}", progress_line(shared));
     }
     // Sessions whose workers had not left by now end with the coordinator.
     if let Err(e) = shared
@@ -311,7 +350,7 @@ pub async fn serve(
             Err(e) => tracing::warn!("{e}; the database itself is complete and committed"),
         }
     }
-    Ok(ended)
+    Ok(finished)
 }
 
 /// Copies the database every `backup.every`; a failed copy is logged and tried again

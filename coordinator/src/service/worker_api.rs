@@ -339,19 +339,9 @@ impl Session {
             Outcome::try_from(wire).map_err(|e| Status::invalid_argument(e.to_string()))?;
         let id = self.id;
         let accepted = self.shared.with(true, |s| {
-            if let Outcome::Valid { features, cell, .. } = &outcome {
-                let expected = s.experiment().features.cell_of(features).ok();
-                if expected != Some(*cell) {
-                    return Err(Status::invalid_argument(format!(
-                        "outcome.valid.cell: {} does not match the features (cell {:?})",
-                        cell.0,
-                        expected.map(|c| c.0)
-                    )));
-                }
-            }
             s.accept(id, key, outcome, r.seconds).map_err(|e| match e {
-                Refusal::NoSuchRun(_) => Status::not_found(e.to_string()),
-                Refusal::Unknown(_) => Status::not_found(e.to_string()),
+                Refusal::NoSuchRun(_) | Refusal::Unknown(_) => Status::not_found(e.to_string()),
+                Refusal::CellMismatch { .. } => Status::invalid_argument(e.to_string()),
             })
         })?;
         self.held.remove(&key);

@@ -11,9 +11,10 @@
 //! population ends at the candidate that brings its passes to the target. So neither the
 //! number of workers, nor their speed, nor restarts change a run.
 
-use crate::qd::changes::{AppliedCandidate, RunRecord, StepCommit, StoredPending, Write};
+use crate::qd::changes::{AppliedCandidate, StepCommit, StoredPending, Write};
 use crate::qd::evolution::{initial_candidate, offspring, Parents};
 use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::run::RunRecord;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
 use strider_common::experiment::{ConstraintHandling, RunSettings};
@@ -60,6 +61,14 @@ pub enum Refusal {
     /// The run has no such candidate (never drawn).
     #[error("{0} does not exist")]
     Unknown(CandidateKey),
+    /// A valid outcome whose cell is not the one its features fall in.
+    #[error("outcome.valid.cell: {stated} does not match the features (cell {expected:?})")]
+    CellMismatch {
+        /// The cell the outcome states.
+        stated: u32,
+        /// The cell its features fall in (none: outside the grid).
+        expected: Option<u32>,
+    },
 }
 
 /// What became of an accepted result.
@@ -338,6 +347,17 @@ impl Scheduler {
         outcome: Outcome,
         seconds: f64,
     ) -> Result<Accepted, Refusal> {
+        // A design is placed in the cell its outcome states: that must be the cell its
+        // features fall in.
+        if let Outcome::Valid { features, cell, .. } = &outcome {
+            let expected = self.experiment.features.cell_of(features).ok();
+            if expected != Some(*cell) {
+                return Err(Refusal::CellMismatch {
+                    stated: cell.0,
+                    expected: expected.map(|c| c.0),
+                });
+            }
+        }
         if self.answered(key) {
             return Ok(Accepted::Duplicate);
         }
