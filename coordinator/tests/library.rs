@@ -233,7 +233,7 @@ fn genome_scheme_offspring_evolve_their_controller() {
 
 #[test]
 fn every_placement_has_one_stored_name_and_other_text_names_none() {
-    use strider_coordinator::qd::library::InfeasiblePlacement;
+    use strider_coordinator::qd::library::CellChange;
     for p in Placement::ALL {
         assert_eq!(Placement::named(p.name()), Some(p));
     }
@@ -241,5 +241,5 @@ fn every_placement_has_one_stored_name_and_other_text_names_none() {
     assert_eq!(names.len(), Placement::ALL.len());
     assert_eq!(Placement::named("bogus"), None);
     assert_eq!(Placement::named("Invalid"), None);
-    assert_eq!(InfeasiblePlacement::named("rejected"), None);
+    assert_eq!(CellChange::named("rejected"), None);
 }

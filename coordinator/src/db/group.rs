@@ -8,7 +8,7 @@ use super::checksum::{CandidateColumns, GenerationColumns, GENERATION_COLUMNS};
 use super::rows::{column, PendingRow};
 use super::{run_column, standing_figure, worker_column, Db, DbError};
 use crate::qd::changes::{StepCommit, Write};
-use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::library::{CellChange, GenerationStats, Placement};
 use crate::qd::run::RunPosition;
 use std::collections::HashMap;
 use strider_common::{InvalidReason, Outcome, RunId};
@@ -430,10 +430,10 @@ async fn write_step(
                 let key = format!("run {run} generation 0");
                 let n = column::<i64>(&r, "candidates", &key, "n")? as usize;
                 let name: String = column(&r, "candidates", &key, "placement")?;
-                match InfeasiblePlacement::named(&name) {
-                    Some(InfeasiblePlacement::New) => stats.infeasible_new = n,
-                    Some(InfeasiblePlacement::Improved) => stats.infeasible_improved = n,
-                    Some(InfeasiblePlacement::Discarded) => {}
+                match CellChange::named(&name) {
+                    Some(CellChange::New) => stats.infeasible_new = n,
+                    Some(CellChange::Improved) => stats.infeasible_improved = n,
+                    Some(CellChange::Discarded) => {}
                     None => return Err(unknown_placement(run, &name)),
                 }
             }

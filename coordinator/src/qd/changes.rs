@@ -3,7 +3,7 @@
 //! an open step (a run's own state is `qd::run`). Plain data; the scheduler and the database both
 //! depend on it, neither on the other.
 
-use crate::qd::library::{Elite, GenerationStats, InfeasibleElite, InfeasiblePlacement, Placement};
+use crate::qd::library::{CellChange, Elite, GenerationStats, InfeasibleElite, Placement};
 use crate::qd::run::RunPosition;
 use strider_common::ids::CandidateNumber;
 use strider_common::{CellIndex, Genome, Outcome, RunId, WorkerId};
@@ -19,7 +19,7 @@ pub struct AppliedCandidate {
     /// What it did to the feasible library.
     pub placement: Placement,
     /// What it did to the infeasible library, if it was offered there.
-    pub infeasible: Option<InfeasiblePlacement>,
+    pub infeasible: Option<CellChange>,
 }
 
 /// A step of a run applied to its library: stored in the same transaction as everything

@@ -33,10 +33,11 @@ pub struct InfeasibleElite {
     pub shortfall: Shortfall,
 }
 
-/// What an infeasible result did to the infeasible library.
+/// What offering a design to an archive did to its cell: what an infeasible result did to
+/// the infeasible library, and the feasible library's part of a [`Placement`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum InfeasiblePlacement {
+pub enum CellChange {
     /// Filled an empty cell.
     New,
     /// Replaced an elite further from the brief.
@@ -45,25 +46,21 @@ pub enum InfeasiblePlacement {
     Discarded,
 }
 
-impl InfeasiblePlacement {
+impl CellChange {
     /// Its name in the database.
     pub fn name(self) -> &'static str {
         match self {
-            InfeasiblePlacement::New => "new",
-            InfeasiblePlacement::Improved => "improved",
-            InfeasiblePlacement::Discarded => "discarded",
+            CellChange::New => "new",
+            CellChange::Improved => "improved",
+            CellChange::Discarded => "discarded",
         }
     }
 
     /// The placement called `name`.
     pub fn named(name: &str) -> Option<Self> {
-        [
-            InfeasiblePlacement::New,
-            InfeasiblePlacement::Improved,
-            InfeasiblePlacement::Discarded,
-        ]
-        .into_iter()
-        .find(|p| p.name() == name)
+        [CellChange::New, CellChange::Improved, CellChange::Discarded]
+            .into_iter()
+            .find(|p| p.name() == name)
     }
 }
 
@@ -162,11 +159,11 @@ impl GenerationStats {
     }
 
     /// Counts one result's change to the infeasible library.
-    pub fn record_infeasible(&mut self, p: Option<InfeasiblePlacement>) {
+    pub fn record_infeasible(&mut self, p: Option<CellChange>) {
         match p {
-            Some(InfeasiblePlacement::New) => self.infeasible_new += 1,
-            Some(InfeasiblePlacement::Improved) => self.infeasible_improved += 1,
-            Some(InfeasiblePlacement::Discarded) | None => {}
+            Some(CellChange::New) => self.infeasible_new += 1,
+            Some(CellChange::Improved) => self.infeasible_improved += 1,
+            Some(CellChange::Discarded) | None => {}
         }
     }
 }
@@ -231,25 +228,19 @@ impl<E> Archive<E> {
 
     /// Offers `e` to `cell`: it fills an empty cell or replaces a holder `beats` says it
     /// beats strictly.
-    fn offer(&mut self, cell: CellIndex, e: E, beats: impl Fn(&E, &E) -> bool) -> Change {
+    fn offer(&mut self, cell: CellIndex, e: E, beats: impl Fn(&E, &E) -> bool) -> CellChange {
         match self.map.get_mut(&cell) {
             None => {
                 self.restore(cell, e);
-                Change::New
+                CellChange::New
             }
             Some(old) if beats(&e, old) => {
                 *old = e;
-                Change::Improved
+                CellChange::Improved
             }
-            Some(_) => Change::Discarded,
+            Some(_) => CellChange::Discarded,
         }
     }
-}
-
-enum Change {
-    New,
-    Improved,
-    Discarded,
 }
 
 /// One run's feasible library: the designs that meet the whole brief, by fitness.
@@ -287,9 +278,9 @@ impl Library {
             fitness,
         };
         match self.offer(cell, elite, |new, old| new.fitness > old.fitness) {
-            Change::New => Placement::New,
-            Change::Improved => Placement::Improved,
-            Change::Discarded => Placement::Discarded,
+            CellChange::New => Placement::New,
+            CellChange::Improved => Placement::Improved,
+            CellChange::Discarded => Placement::Discarded,
         }
     }
 
@@ -327,7 +318,7 @@ impl InfeasibleLibrary {
         genome: &Genome,
         outcome: &Outcome,
         cell: CellIndex,
-    ) -> Option<InfeasiblePlacement> {
+    ) -> Option<CellChange> {
         let shortfall = outcome.shortfall()?;
         let elite = InfeasibleElite {
             candidate,
@@ -338,13 +329,7 @@ impl InfeasibleLibrary {
             standing: outcome.standing(),
             shortfall,
         };
-        Some(
-            match self.offer(cell, elite, |new, old| new.standing.beats(&old.standing)) {
-                Change::New => InfeasiblePlacement::New,
-                Change::Improved => InfeasiblePlacement::Improved,
-                Change::Discarded => InfeasiblePlacement::Discarded,
-            },
-        )
+        Some(self.offer(cell, elite, |new, old| new.standing.beats(&old.standing)))
     }
 
     /// `stats` completed with the infeasible library's counts, beside `feasible`.

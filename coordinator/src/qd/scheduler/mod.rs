@@ -13,7 +13,7 @@
 
 use crate::qd::changes::{AppliedCandidate, StepCommit, StoredPending, Write};
 use crate::qd::evolution::{initial_candidate, offspring, Parents};
-use crate::qd::library::{GenerationStats, InfeasiblePlacement, Placement};
+use crate::qd::library::{CellChange, GenerationStats, Placement};
 use crate::qd::run::RunRecord;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};

@@ -283,7 +283,7 @@ struct Changed {
 /// What one result did to a run's libraries.
 struct Placed {
     feasible: Placement,
-    infeasible: Option<InfeasiblePlacement>,
+    infeasible: Option<CellChange>,
     /// The cell it was placed in, when it changed a library.
     cell: Option<CellIndex>,
 }
@@ -299,7 +299,7 @@ impl Placed {
             }
             if matches!(
                 self.infeasible,
-                Some(InfeasiblePlacement::New | InfeasiblePlacement::Improved)
+                Some(CellChange::New | CellChange::Improved)
             ) {
                 changed.infeasible.insert(cell);
             }
