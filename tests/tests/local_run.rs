@@ -95,29 +95,66 @@ fn a_coordinator_killed_anywhere_resumes_to_the_same_library() {
 }
 
 #[test]
-fn a_different_experiment_on_an_existing_database_is_refused() {
+fn a_different_experiment_is_refused_and_more_generations_extend_a_finished_run() {
     let dir = temp_dir("mismatch");
     let db = dir.join("x.db");
     run_to_end(&db, "2");
-    let other = dir.join("other.toml");
-    let text = std::fs::read_to_string(workspace_root().join(TINY))
-        .unwrap()
-        .replace("generations = 12", "generations = 13");
-    std::fs::write(&other, text).unwrap();
-    let out = run(
-        "strider-coordinator",
-        &["run", other.to_str().unwrap(), "--db", db.to_str().unwrap()],
+    // The tiny experiment with one setting changed.
+    let variant = |name: &str, from: &str, to: &str| {
+        let file = dir.join(name);
+        let text = std::fs::read_to_string(workspace_root().join(TINY)).unwrap();
+        assert!(text.contains(from), "{from}");
+        std::fs::write(&file, text.replace(from, to)).unwrap();
+        file
+    };
+    let run_with = |file: &Path, db: &Path| {
+        run(
+            "strider-coordinator",
+            &["run", file.to_str().unwrap(), "--db", db.to_str().unwrap()],
+        )
+    };
+    let refused = |file: &Path, why: &str| {
+        let out = run_with(file, &db);
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(why), "{err}");
+    };
+    refused(
+        &variant("seed.toml", "seed = 11", "seed = 12"),
+        "holds a different experiment (seed: 11 in the database, 12 given)",
     );
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("run.generations: 12 in the database, 13 given"),
-        "{err}"
+    refused(
+        &variant("shorter.toml", "generations = 12", "generations = 11"),
+        "run.generations: 12 in the database, 11 given: a run cannot be shortened",
     );
     // Resuming a finished experiment with its own file changes nothing.
     let before = export(&db);
     run_to_end(&db, "2");
     assert_same_library(&export(&db), &before);
+    // More generations: the finished runs go on, to the library a run of that many
+    // builds from the start.
+    let longer = variant("longer.toml", "generations = 12", "generations = 14");
+    let out = run_with(&longer, &db);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("extending experiment `tiny` from 12 to 14 generations"),
+        "{err}"
+    );
+    let fresh = dir.join("fresh.db");
+    let out = run_with(&longer, &fresh);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let extended = export(&db);
+    assert_same_library(&extended, &export(&fresh));
+    for r in extended["runs"].as_array().unwrap() {
+        assert_eq!(r["finished"], true);
+        assert_eq!(r["generations"].as_array().unwrap().len(), 15);
+    }
+    assert_eq!(integrity(&db), "ok");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

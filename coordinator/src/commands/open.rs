@@ -1,7 +1,7 @@
 //! Opening a database for a command: to run or serve it (created when new, refused when it
 //! holds another experiment or is inconsistent), or to read it (read-only if need be).
 
-use crate::db::{build_id, first_difference, Db};
+use crate::db::{build_id, extends, first_difference, Db};
 use crate::qd::run::RunRecord;
 use anyhow::{bail, Context};
 use std::path::Path;
@@ -27,9 +27,23 @@ pub(super) async fn open_or_create(
     }
     let db = Db::open_exclusive(path, true).await?;
     let experiment = match db.experiment().await? {
-        Some((stored, build)) => {
+        Some((mut stored, build)) => {
             if let Some(given) = &given {
-                if let Some(d) = first_difference(&stored, given) {
+                let longer = extends(&stored, given)
+                    .map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
+                if longer {
+                    // Checked against the stored experiment first: the extension is written
+                    // only to a database that would be resumed as it is.
+                    let problems = db.inconsistencies(&stored).await?;
+                    if problems.is_empty() {
+                        db.extend_experiment(given).await?;
+                        eprintln!(
+                            "extending experiment `{}` from {} to {} generations",
+                            stored.name, stored.run.generations, given.run.generations
+                        );
+                        stored = given.clone();
+                    }
+                } else if let Some(d) = first_difference(&stored, given) {
                     bail!(
                         "{} holds a different experiment ({d}); use another --db or the same file",
                         path.display()

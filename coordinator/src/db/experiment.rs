@@ -42,6 +42,25 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
     }
 }
 
+/// Whether `given` is `stored` with more generations and nothing else changed: an
+/// extension of a run that may have finished. `Err` says why not when only the number of
+/// generations differs but `given` has fewer.
+pub fn extends(stored: &Experiment, given: &Experiment) -> Result<bool, String> {
+    let mut same = given.clone();
+    same.run.generations = stored.run.generations;
+    if first_difference(stored, &same).is_some() {
+        return Ok(false);
+    }
+    match given.run.generations.cmp(&stored.run.generations) {
+        std::cmp::Ordering::Greater => Ok(true),
+        std::cmp::Ordering::Equal => Ok(false),
+        std::cmp::Ordering::Less => Err(format!(
+            "run.generations: {} in the database, {} given: a run cannot be shortened (its later generations are stored); give {} or more to extend it",
+            stored.run.generations, given.run.generations, stored.run.generations
+        )),
+    }
+}
+
 fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".into(), |v| v.to_string())
 }
@@ -102,6 +121,24 @@ impl Db {
             Ok((e, rows::column(&r, "experiment", "row 1", "build")?))
         })
         .transpose()
+    }
+
+    /// Replaces the stored experiment with `longer` (the same with more generations, see
+    /// [`extends`]) and marks every run unfinished that has not done them all: one
+    /// transaction, the row sealed anew.
+    pub async fn extend_experiment(&self, longer: &Experiment) -> Result<(), DbError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("UPDATE experiment SET definition = ?, checksum = NULL WHERE id = 1")
+            .bind(canonical_toml(longer))
+            .execute(&mut *tx)
+            .await?;
+        seal_experiment(&mut tx).await?;
+        sqlx::query("UPDATE runs SET finished = 0 WHERE generation < ?")
+            .bind(i64::from(longer.run.generations))
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(())
     }
 
     /// Stores a new experiment and its runs.

@@ -11,7 +11,7 @@ mod open;
 pub(crate) mod rows;
 
 pub use checks::{damaged_generations, damaged_rows};
-pub use experiment::{canonical_toml, first_difference};
+pub use experiment::{canonical_toml, extends, first_difference};
 use open::WriterLock;
 
 pub use group::PreparedGroup;
