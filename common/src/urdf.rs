@@ -120,22 +120,20 @@ pub fn start_pose_path(urdf: &std::path::Path) -> std::path::PathBuf {
     urdf.with_file_name(format!("{stem}.start_pose.json"))
 }
 
-/// Writes `plan` as URDF named `name` to `path`, and its start pose (with `controller`'s
-/// targets at t = 0) beside it ([`start_pose_path`]); returns the start pose's path.
-pub fn write_files(
+/// The two files of a design for `path`: `plan` as URDF named `name`, and its start pose
+/// (with `controller`'s targets at t = 0) beside it ([`start_pose_path`]). The caller
+/// writes them, together.
+pub fn files(
     name: &str,
     plan: &BodyPlan,
     controller: &crate::Controller,
     path: &std::path::Path,
-) -> std::io::Result<std::path::PathBuf> {
-    let with_path = |e: std::io::Error, p: &std::path::Path| {
-        std::io::Error::new(e.kind(), format!("writing {}: {e}", p.display()))
-    };
-    std::fs::write(path, to_urdf(name, plan)).map_err(|e| with_path(e, path))?;
-    let pose = start_pose_path(path);
+) -> [(std::path::PathBuf, String); 2] {
     let start = UrdfStartPose::new(plan, &crate::StartPose::new(plan, controller));
-    std::fs::write(&pose, start.to_json() + "\n").map_err(|e| with_path(e, &pose))?;
-    Ok(pose)
+    [
+        (path.to_path_buf(), to_urdf(name, plan)),
+        (start_pose_path(path), start.to_json() + "\n"),
+    ]
 }
 
 /// `plan` as a URDF document named `name`.

@@ -3,6 +3,7 @@
 //! and the terminal's progress bar (`terminal`). Nothing of the wire contract
 //! (`strider-proto`) or the model (`strider-common`).
 
+pub mod files;
 pub mod terminal;
 
 /// A command line that cannot run as given (a flag out of range, a bad log filter): exits

@@ -36,10 +36,13 @@ fn one_thread_and_two_threads_give_identical_libraries() {
     let (one, two) = (dir.join("one.db"), dir.join("two.db"));
     run_to_end(&one, "1");
     run_to_end(&two, "2");
-    // A run that ended cleanly leaves no lock file beside its database.
+    // A run that ended cleanly leaves no lock file, log or shared memory beside its
+    // database: the .db alone.
     for db in [&one, &two] {
-        let lock = db.with_extension("db.lock");
-        assert!(!lock.exists(), "{} was left behind", lock.display());
+        for left in ["db.lock", "db-wal", "db-shm"] {
+            let f = db.with_extension(left);
+            assert!(!f.exists(), "{} was left behind", f.display());
+        }
     }
     let (a, b) = (export(&one), export(&two));
     assert_same_library(&a, &b);

@@ -125,6 +125,57 @@ fn eval_refuses_an_unknown_scheme() {
 }
 
 #[test]
+fn eval_writes_every_file_asked_for_or_none() {
+    let dir = strider_tests::temp_dir("eval-all-or-none");
+    let (trace, svg) = (dir.join("t.csv"), dir.join("max.svg"));
+    // A directory where the drawing goes: it cannot be written, so the trace is not left
+    // behind either.
+    std::fs::create_dir(&svg).unwrap();
+    let out = run(
+        "strider-worker",
+        &[
+            "eval",
+            "designs/max.json",
+            "--trace",
+            trace.to_str().unwrap(),
+            "--svg",
+            svg.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(&format!("writing {}", svg.display())), "{err}");
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["max.svg"], "only the directory in the way");
+    // With the way clear, both are written.
+    std::fs::remove_dir(&svg).unwrap();
+    let out = run(
+        "strider-worker",
+        &[
+            "eval",
+            "designs/max.json",
+            "--trace",
+            trace.to_str().unwrap(),
+            "--svg",
+            svg.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(std::fs::read_to_string(&trace)
+        .unwrap()
+        .starts_with("time,x,y,z"));
+    assert!(std::fs::read_to_string(&svg).unwrap().ends_with("</svg>\n"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn eval_draws_the_design_to_scale_and_replays_the_trial() {
     let dir = strider_tests::temp_dir("eval-drawings");
     let (svg, replay) = (dir.join("max.svg"), dir.join("max-replay.svg"));

@@ -39,11 +39,17 @@ impl<W: Write> CsvTrace<W> {
     }
 
     /// Finishes the trace, reporting the first write error.
-    pub fn finish(mut self) -> io::Result<()> {
+    pub fn finish(self) -> io::Result<()> {
+        self.into_inner().map(drop)
+    }
+
+    /// Finishes the trace and returns what it wrote into, or the first write error.
+    pub fn into_inner(mut self) -> io::Result<W> {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
-        self.out.flush()
+        self.out.flush()?;
+        Ok(self.out)
     }
 }
 

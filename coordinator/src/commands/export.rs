@@ -173,7 +173,13 @@ async fn export_urdf(
         "{} run {} cell {}",
         experiment.name, found.run, found.cell.0
     );
-    let pose = strider_common::urdf::write_files(&name, &plan, &found.genome.controller, urdf)?;
+    let files = strider_common::urdf::files(&name, &plan, &found.genome.controller, urdf);
+    let pose = files[1].0.clone();
+    let mut out = strider_process::files::Outputs::new();
+    for (path, text) in files {
+        out.add(path, text);
+    }
+    out.commit()?;
     eprintln!(
         "{found}, {:.2} kg, {} legs -> {} (start pose: {})",
         plan.total_mass(),

@@ -7,6 +7,7 @@ use crate::results::report::{png, Inputs, RunData};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
 use strider_common::RunId;
+use strider_process::files::Outputs;
 
 /// Arguments of `report`.
 #[derive(clap::Args)]
@@ -61,22 +62,30 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
         chosen,
         reference: Some((&max, "MAX")),
     });
+    // Every file is written, or none (a directory this command made is removed again).
+    let made = !out.exists();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let write = |name: &str, bytes: &[u8]| {
-        let p = out.join(name);
-        std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))
-    };
-    write("report.html", report.html.as_bytes())?;
+    let mut files = Outputs::new();
+    files.add(out.join("report.html"), report.html.as_bytes());
     let fonts = png::fonts();
     if fonts.is_empty() {
         eprintln!("warning: no system fonts found: the PNG pictures will have no text (the SVG and HTML are complete); install fonts-dejavu-core");
     }
     for p in &report.pictures {
-        write(&format!("{}.svg", p.name), p.svg.as_bytes())?;
-        write(&format!("{}.png", p.name), &png::render(&p.svg, &fonts)?)?;
+        files.add(out.join(format!("{}.svg", p.name)), p.svg.as_bytes());
+        files.add(
+            out.join(format!("{}.png", p.name)),
+            png::render(&p.svg, &fonts)?,
+        );
     }
     for t in &report.tables {
-        write(&format!("{}.csv", t.name), t.csv.as_bytes())?;
+        files.add(out.join(format!("{}.csv", t.name)), t.csv.as_bytes());
+    }
+    if let Err(e) = files.commit() {
+        if made {
+            let _ = std::fs::remove_dir(out);
+        }
+        return Err(e.into());
     }
     eprintln!(
         "wrote {} ({} pictures as SVG and PNG, {} tables as CSV)",

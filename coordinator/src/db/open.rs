@@ -93,6 +93,13 @@ fn lock(path: &Path) -> Result<WriterLock, DbError> {
 }
 
 impl Db {
+    /// Closes every connection of this database (and its clones). SQLite removes the
+    /// write-ahead log and shared-memory files when the last connection closes, so a
+    /// clean exit leaves the `.db` alone beside its lock.
+    pub async fn close(&self) {
+        self.pool.close().await;
+    }
+
     /// Opens a database to write it, as its only writer: refuses while another process
     /// holds it ([`DbError::Locked`], naming the holder), then opens (creating if asked)
     /// and migrates it.

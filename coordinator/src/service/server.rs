@@ -193,6 +193,13 @@ pub async fn serve(
     if wind_down(&shared, &mut writer, &opts).await? {
         ended = Ended::Finished;
     }
+    // The writer ends once every sender is gone (sessions that outlived the server's
+    // grace time may hold one: bounded waits); then closing every connection lets SQLite
+    // remove the emptied -wal and -shm files.
+    let db = shared.db.clone();
+    drop(shared);
+    let _ = tokio::time::timeout(Duration::from_secs(5), writer).await;
+    let _ = tokio::time::timeout(Duration::from_secs(5), db.close()).await;
     Ok(ended)
 }
 

@@ -7,10 +7,11 @@ use crate::replay::Replay;
 use crate::trace::CsvTrace;
 use crate::trial_outcome::evaluate_controller;
 use anyhow::Context;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use strider_common::drawing::{design_svg, filmstrip_svg, replay_svg};
 use strider_common::rng::CandidateSeed;
 use strider_common::{BodyPlan, Controller, EvalContext, Genome, Outcome, Scheme, StartPose};
+use strider_process::files::Outputs;
 use strider_process::outln;
 
 /// Arguments of `eval`.
@@ -63,10 +64,12 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
     let ctx = context(experiment.as_deref())?;
     let cand = CandidateSeed::new(seed, 0);
     let outcome = evaluate(&ctx, &g, scheme, cand);
+    // The files asked for are written together at the end: all, or none.
+    let mut outputs = Outputs::new();
     if let Some(path) = trace {
         // Replay the reported controller with a trace attached (the trial is
         // deterministic, so this is the same trial).
-        write_trace(&ctx, &g, outcome.controller(), &path)?;
+        outputs.add(path, trace_csv(&ctx, &g, outcome.controller())?);
     }
     let title = format!(
         "{} ({} scheme): {}",
@@ -77,23 +80,21 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
     if let Some(path) = svg {
         let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
         let pose = StartPose::new(&plan, outcome.controller());
-        std::fs::write(&path, design_svg(&plan, &pose, &title))
-            .with_context(|| format!("writing {}", path.display()))?;
+        outputs.add(path, design_svg(&plan, &pose, &title));
     }
     if replay.is_some() || filmstrip.is_some() {
         let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
         let mut frames = Replay::default();
         evaluate_controller(&ctx, &g, &plan, outcome.controller(), &mut frames);
         if let Some(path) = replay {
-            std::fs::write(&path, replay_svg(&plan, &frames.frames, &title))
-                .with_context(|| format!("writing {}", path.display()))?;
+            outputs.add(path, replay_svg(&plan, &frames.frames, &title));
         }
         if let Some(path) = filmstrip {
             let stills = frames.every(0.5);
-            std::fs::write(&path, filmstrip_svg(&plan, &stills, &title))
-                .with_context(|| format!("writing {}", path.display()))?;
+            outputs.add(path, filmstrip_svg(&plan, &stills, &title));
         }
     }
+    outputs.commit()?;
     if json {
         outln!(
             "{}",
@@ -105,20 +106,12 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn write_trace(
-    ctx: &EvalContext,
-    g: &Genome,
-    controller: &Controller,
-    path: &Path,
-) -> anyhow::Result<()> {
+/// The trial's trace as CSV.
+fn trace_csv(ctx: &EvalContext, g: &Genome, controller: &Controller) -> anyhow::Result<Vec<u8>> {
     let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
-    let file = std::fs::File::create(path)
-        .with_context(|| format!("creating trace file {}", path.display()))?;
-    let mut trace = CsvTrace::new(std::io::BufWriter::new(file), &plan)?;
+    let mut trace = CsvTrace::new(Vec::new(), &plan)?;
     evaluate_controller(ctx, g, &plan, controller, &mut trace);
-    trace
-        .finish()
-        .with_context(|| format!("writing trace file {}", path.display()))
+    Ok(trace.into_inner()?)
 }
 
 /// One line about an outcome, for drawing titles.

@@ -31,7 +31,13 @@ pub fn execute(args: UrdfArgs) -> anyhow::Result<()> {
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("design");
-    let pose = strider_common::urdf::write_files(name, &plan, &g.controller, &out)?;
+    let files = strider_common::urdf::files(name, &plan, &g.controller, &out);
+    let pose = files[1].0.clone();
+    let mut outputs = strider_process::files::Outputs::new();
+    for (path, text) in files {
+        outputs.add(path, text);
+    }
+    outputs.commit()?;
     eprintln!(
         "{}: {:.2} kg, {} legs -> {} (start pose: {})",
         genome.display(),
