@@ -214,3 +214,28 @@ fn too_few_designs_give_no_rules() {
     assert!(rules.kept.is_empty() && rules.dropped.is_empty());
     assert_eq!(rules.constant.len(), 6);
 }
+
+#[test]
+fn an_empty_library_has_no_best_fitness_and_one_repeat_no_spread() {
+    use strider_common::Scheme;
+    use strider_coordinator::qd::library::{GenerationStats, InfeasibleLibrary, Library};
+    use strider_coordinator::results::analysis::summary::{summarise, RunResult};
+    let (library, infeasible) = (Library::new(), InfeasibleLibrary::new());
+    let run = RunResult {
+        scheme: Scheme::Static,
+        library: &library,
+        infeasible: &infeasible,
+        last: GenerationStats::default(),
+    };
+    let text = summarise(&[run], &[Scheme::Static], 10.0).to_string();
+    assert!(
+        text.contains(
+            "static  1 repeat: best fitness none (no design meets the brief), coverage 0.000 %\n"
+        ),
+        "{text}"
+    );
+    // One repeat: no "± sd" on its lines.
+    for line in text.lines().filter(|l| l.starts_with("  static")) {
+        assert!(!line.contains('±'), "{line}");
+    }
+}

@@ -105,11 +105,22 @@ pub fn csv_header() -> String {
 /// The per-generation CSV's header: the run, the generation, the candidates it evaluated
 /// (the initial population's draws for generation 0, those refused before simulating
 /// included) and all of the run's so far, then the library's statistics after it
-/// ([`GenerationStats`](crate::qd::library::GenerationStats)).
+/// ([`GenerationStats`](crate::qd::library::GenerationStats)); the fitness columns are
+/// blank while the feasible library is empty.
 pub const GENERATIONS_CSV_HEADER: &str = "run,scheme,repeat,generation,evaluations,\
 cumulative_evaluations,coverage,\
 feasible_elites,max_fitness,mean_fitness,min_fitness,qd_score,new,improved,discarded,\
 rejected,invalid,infeasible_elites,infeasible_only,infeasible_new,infeasible_improved";
+
+/// A library's fitness figure for the CSV: blank while the library is empty (no design
+/// has fitness 0).
+fn blank_if_empty(s: &crate::qd::library::GenerationStats, figure: f64) -> String {
+    if s.elites == 0 {
+        String::new()
+    } else {
+        figure.to_string()
+    }
+}
 
 /// One line of the per-generation CSV.
 pub fn generations_csv_line(
@@ -125,9 +136,9 @@ pub fn generations_csv_line(
         run.spec.repeat,
         s.coverage,
         s.elites,
-        s.max_fitness,
-        s.mean_fitness,
-        s.min_fitness,
+        blank_if_empty(s, s.max_fitness),
+        blank_if_empty(s, s.mean_fitness),
+        blank_if_empty(s, s.min_fitness),
         s.qd_score,
         s.new,
         s.improved,
@@ -356,6 +367,42 @@ pub fn find(runs: &[RunRecord], choice: EliteChoice, cell_count: u32) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_empty_librarys_fitness_columns_are_blank_not_zero() {
+        use crate::qd::library::GenerationStats;
+        use strider_common::experiment::RunSpec;
+        use strider_common::rng::RunSeed;
+        use strider_common::Scheme;
+        let run = RunRecord::new(
+            RunId(0),
+            RunSpec {
+                scheme: Scheme::Static,
+                repeat: 0,
+                seed: RunSeed(1),
+            },
+        );
+        let header: Vec<&str> = GENERATIONS_CSV_HEADER.split(',').collect();
+        let column = |line: &str, name: &str| {
+            let at = header.iter().position(|h| *h == name).unwrap();
+            line.split(',').nth(at).unwrap().to_string()
+        };
+        let empty = generations_csv_line(&run, 3, (60, 600), &GenerationStats::default());
+        for name in ["max_fitness", "mean_fitness", "min_fitness"] {
+            assert_eq!(column(&empty, name), "", "{name} in {empty}");
+        }
+        assert_eq!(column(&empty, "qd_score"), "0");
+        let one = GenerationStats {
+            elites: 1,
+            max_fitness: 1.5,
+            mean_fitness: 1.5,
+            min_fitness: 1.5,
+            qd_score: 1.5,
+            ..GenerationStats::default()
+        };
+        let line = generations_csv_line(&run, 3, (60, 600), &one);
+        assert_eq!(column(&line, "max_fitness"), "1.5");
+    }
 
     #[test]
     fn elites_are_named_by_run_and_cell_or_best() {

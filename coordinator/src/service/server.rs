@@ -506,16 +506,25 @@ pub fn progress_line(shared: &Shared) -> String {
             format!("generation {}/{}", r.generation, r.generations)
         };
         line.push_str(&format!(
-            " | run {}: {phase}, {} candidates, feasible cells {} ({:.2} %), infeasible-only {}, best {:.4}",
+            " | run {}: {phase}, {} candidates, feasible cells {} ({:.2} %), infeasible-only {}, best {}",
             r.run,
             r.trials_done,
             r.feasible_elites,
             100.0 * r.coverage,
             r.infeasible_only,
-            r.best_fitness
+            best_words(r.feasible_elites, r.best_fitness)
         ));
     }
     line
+}
+
+/// The best fitness of a library of `elites` designs, or `none` while it is empty.
+fn best_words(elites: u32, best: f64) -> String {
+    if elites == 0 {
+        "none".into()
+    } else {
+        format!("{best:.4}")
+    }
 }
 
 /// Many runs in a few figures: how many are finished, the range of their generations,
@@ -533,9 +542,14 @@ fn runs_summary(runs: &[v1::RunProgress], initial: u32) -> String {
     );
     let cells = runs.iter().map(|r| r.feasible_elites);
     let mean = f64::from(cells.clone().sum::<u32>()) / runs.len() as f64;
-    let best = runs.iter().map(|r| r.best_fitness).fold(0.0_f64, f64::max);
+    let best = runs
+        .iter()
+        .filter(|r| r.feasible_elites > 0)
+        .map(|r| r.best_fitness)
+        .fold(0.0_f64, f64::max);
+    let best = best_words(cells.clone().max().unwrap_or(0), best);
     format!(
-        " | {} runs: {finished} finished, {drawing} drawing initial designs, generations {low}-{high} of {}; feasible cells {}-{} (mean {mean:.0}); best {best:.4}",
+        " | {} runs: {finished} finished, {drawing} drawing initial designs, generations {low}-{high} of {}; feasible cells {}-{} (mean {mean:.0}); best {best}",
         runs.len(),
         runs[0].generations,
         cells.clone().min().unwrap_or(0),

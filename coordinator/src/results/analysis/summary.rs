@@ -239,15 +239,34 @@ impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "Final library, per scheme (mean ± sd over repeats)")?;
         for s in &self.schemes {
+            let repeats = if s.repeats == 1 {
+                "1 repeat".to_string()
+            } else {
+                format!("{} repeats", s.repeats)
+            };
+            // One repeat has no spread; an empty library has no best fitness (its
+            // statistics hold 0).
+            let spread = |m: MeanSd, scale: f64, decimals: usize| {
+                if s.repeats > 1 {
+                    format!(
+                        "{:.decimals$} ± {:.decimals$}",
+                        scale * m.mean,
+                        scale * m.sd
+                    )
+                } else {
+                    format!("{:.decimals$}", scale * m.mean)
+                }
+            };
+            let best = if s.repeats_with_designs == 0 {
+                "none (no design meets the brief)".to_string()
+            } else {
+                spread(s.best, 1.0, 4)
+            };
             writeln!(
                 f,
-                "  {:<7} {} repeats: best fitness {:.4} ± {:.4}, coverage {:.3} % ± {:.3} %",
+                "  {:<7} {repeats}: best fitness {best}, coverage {} %",
                 s.scheme,
-                s.repeats,
-                s.best.mean,
-                s.best.sd,
-                100.0 * s.coverage.mean,
-                100.0 * s.coverage.sd
+                spread(s.coverage, 100.0, 3)
             )?;
         }
         writeln!(
@@ -256,14 +275,19 @@ impl fmt::Display for Summary {
         )?;
         for s in &self.schemes {
             let fr = &s.frontier;
+            let count = |m: MeanSd| {
+                if s.repeats > 1 {
+                    format!("{:.1} ± {:.1}", m.mean, m.sd)
+                } else {
+                    format!("{:.0}", m.mean)
+                }
+            };
             write!(
                 f,
-                "  {:<7} feasible {:.1} ± {:.1}, infeasible only {:.1} ± {:.1}:",
+                "  {:<7} feasible {}, infeasible only {}:",
                 s.scheme,
-                fr.feasible.mean,
-                fr.feasible.sd,
-                fr.infeasible_only.mean,
-                fr.infeasible_only.sd
+                count(fr.feasible),
+                count(fr.infeasible_only)
             )?;
             for (shortfall, n) in &fr.binding {
                 write!(f, " {} {n:.1}", shortfall.name())?;

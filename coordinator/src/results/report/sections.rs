@@ -34,6 +34,8 @@ fn series(e: &Experiment, runs: &[RunData], figure: fn(&GenerationStats) -> f64)
                         .iter()
                         .filter_map(|r| r.generations.iter().find(|x| x.0 == g))
                         .map(|x| figure(&x.1))
+                        // A fitness of an empty library is no figure (not 0).
+                        .filter(|v| v.is_finite())
                         .collect();
                     (!v.is_empty()).then(|| {
                         let m = mean_sd(&v);
@@ -48,6 +50,16 @@ fn series(e: &Experiment, runs: &[RunData], figure: fn(&GenerationStats) -> f64)
             }
         })
         .collect()
+}
+
+/// A library's fitness figure, NaN while the library is empty (the statistics hold 0
+/// there, which is no design's fitness).
+fn fitness(s: &GenerationStats, figure: f64) -> f64 {
+    if s.elites == 0 {
+        f64::NAN
+    } else {
+        figure
+    }
 }
 
 /// The figures of Figure 3: (file stem, title, axis label, figure).
@@ -65,19 +77,19 @@ const FIGURES: [Figure; 5] = [
         "best_fitness",
         "Best fitness in the library",
         "fitness",
-        |s| s.max_fitness,
+        |s| fitness(s, s.max_fitness),
     ),
     (
         "mean_fitness",
         "Mean fitness of the library",
         "fitness",
-        |s| s.mean_fitness,
+        |s| fitness(s, s.mean_fitness),
     ),
     (
         "lowest_fitness",
         "Lowest fitness in the library",
         "fitness",
-        |s| s.min_fitness,
+        |s| fitness(s, s.min_fitness),
     ),
     ("coverage", "Coverage (cells filled)", "coverage, %", |s| {
         100.0 * s.coverage
@@ -188,9 +200,18 @@ pub(super) fn schemes(out: &mut Page, summary: &Summary) {
                 text(s.scheme.name()),
                 count(s.repeats as u64),
                 num(s.best.mean, 4),
-                num(s.best.sd, 4),
+                // One repeat has no spread to show.
+                if s.repeats > 1 {
+                    num(s.best.sd, 4)
+                } else {
+                    Cell::Empty
+                },
                 num(100.0 * s.coverage.mean, 3),
-                num(100.0 * s.coverage.sd, 3),
+                if s.repeats > 1 {
+                    num(100.0 * s.coverage.sd, 3)
+                } else {
+                    Cell::Empty
+                },
             ]
         })
         .collect();
