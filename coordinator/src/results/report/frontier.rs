@@ -3,8 +3,9 @@
 
 use super::maps::{frontier_marginals_svg, frontier_svg};
 use super::table::{add_table, count, num, text, Cell};
-use super::{push_picture, Inputs, Page, Picture, RunData};
+use super::{push_picture, Inputs, Page, Picture, RunData, SECTIONS};
 use crate::results::analysis::summary::Summary;
+use std::fmt::Write;
 use strider_common::{BodyPlan, CellIndex, StartPose};
 
 /// How many infeasible designs nearest the brief the report lists.
@@ -23,6 +24,7 @@ pub(super) fn frontier(
         pictures,
         tables,
     } = out;
+    let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[4]);
     let e = inp.experiment;
     page.push_str("<p>Cells holding a design that meets the whole brief (feasible), cells holding only designs that miss it (from the infeasible library, kept by feasible-infeasible search), and, for those, the constraint that binds: too slow, backward, fell, self-contact or unstable (mean over repeats).</p>\n");
     let mut header: Vec<String> = ["scheme", "feasible cells", "infeasible-only cells"]
