@@ -136,7 +136,27 @@ pub fn files(
     ]
 }
 
-/// `plan` as a URDF document named `name`.
+/// A robot name URDF tools take as it is (ROS packages, xacro and several parsers refuse
+/// or mangle spaces): letters, digits, `_` and `-`, anything else as `_`.
+pub fn robot_name(name: &str) -> String {
+    let n: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if n.is_empty() {
+        "design".into()
+    } else {
+        n
+    }
+}
+
+/// `plan` as a URDF document named `name` (as [`robot_name`] makes it).
 pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
     let mut out = String::new();
     let to_urdf = urdf_from_model();
@@ -156,7 +176,7 @@ pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
         plan.payload_mass,
         T_V = SERVO_DERIVATIVE_TIME,
     );
-    let _ = writeln!(out, r#"<robot name="{}">"#, escape(name));
+    let _ = writeln!(out, r#"<robot name="{}">"#, escape(&robot_name(name)));
 
     // The body, turned into URDF axes.
     let body_mass = rotate(&plan.body_mass, &to_urdf);

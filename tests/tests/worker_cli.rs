@@ -217,3 +217,19 @@ fn eval_draws_the_design_to_scale_and_replays_the_trial() {
     assert!(animation.contains("repeatCount=\"indefinite\""));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_worker_without_a_secret_is_refused_at_once_naming_the_flag() {
+    // Port 9 (discard): nothing answers there; the worker must not try.
+    let out = std::process::Command::new(strider_tests::binary("strider-worker"))
+        .args(["--connect", "http://127.0.0.1:9", "--give-up-after", "600"])
+        .env_remove("STRIDER_SECRET")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no secret: pass --token-file FILE or set STRIDER_SECRET"),
+        "{err}"
+    );
+}

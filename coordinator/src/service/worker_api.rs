@@ -192,7 +192,7 @@ impl Session {
                                 }
                                 continue;
                             }
-                            tracing::warn!(worker = self.id.0, "refused: {}", status.message());
+                            tracing::warn!(worker = self.id.0, name = %self.name, "refused: {}", status.message());
                             // Any other malformed message cuts the worker off; what it held
                             // waits for others (the session's end below).
                             let reason = format!("refused: {}", status.message());
@@ -205,7 +205,7 @@ impl Session {
                     // side and would end the stream with OK: tell the worker why.
                     Err(e) if e.code() == tonic::Code::OutOfRange => {
                         let why = format!("message too large: {}", e.message());
-                        tracing::warn!(worker = self.id.0, "refused: {why}");
+                        tracing::warn!(worker = self.id.0, name = %self.name, "refused: {why}");
                         let _ = self.tx.send(Err(Status::resource_exhausted(why.clone()))).await;
                         break format!("refused: {why}");
                     }
@@ -235,6 +235,7 @@ impl Session {
         }]);
         tracing::info!(
             worker = self.id.0,
+            name = %self.name,
             results = self.results,
             "worker left: {reason}"
         );
@@ -318,7 +319,7 @@ impl Session {
             // A result for a candidate that has one already (this worker's own, sent
             // twice, or another's): acknowledged and ignored, as the protocol says.
             if self.shared.with(false, |s| s.answered(key)) {
-                tracing::debug!(worker = self.id.0, %key, "duplicate result ignored");
+                tracing::debug!(worker = self.id.0, name = %self.name, %key, "duplicate result ignored");
                 return Ok(());
             }
             return Err(Status::failed_precondition(format!(

@@ -76,10 +76,12 @@ pub fn execute(args: ConnectArgs) -> anyhow::Result<()> {
     };
     let opts = ConnectOptions {
         coordinator,
-        // Without one the coordinator refuses the worker, saying so.
+        // Every coordinator asks for the secret: without one a worker could only be
+        // refused, so it is a usage error here, before any connection (it used to retry,
+        // or hear about gRPC metadata from the coordinator).
         authorization: match Secret::load(args.token_file.as_deref()) {
             Ok(secret) => Some(secret),
-            Err(SecretError::Missing) => None,
+            Err(e @ SecretError::Missing) => return Err(UsageError(e.to_string()).into()),
             Err(e) => return Err(e.into()),
         },
         threads: args.threads.unwrap_or_else(default_threads),

@@ -182,22 +182,31 @@ figure.small figcaption {{ max-width: 520px; }}
 </head>
 <body>
 <h1>Strider report: experiment “{name}”</h1>
-<p>{runs} runs ({schemes}; {repeats} repeats each), {finished} finished. Initial population {init}, then up to {gens} generations of {off}. Fitness is 1 / cost of transport: higher walks further on less energy. Tables as CSV: {links}</p>
+<p>{runs} ({schemes}; {repeats} each), {finished} finished. Initial population {init}, then up to {gens} generations of {off}. Fitness is 1 / cost of transport: higher walks further on less energy. Tables as CSV: {links}</p>
 {body}
 </body>
 </html>
 "#,
         name = escape(&e.name),
-        runs = runs.len(),
+        runs = counted(runs.len(), "run"),
         schemes = e
             .schemes
             .iter()
             .map(|s| s.name())
             .collect::<Vec<_>>()
             .join(", "),
-        repeats = e.repeats,
+        repeats = counted(e.repeats as usize, "repeat"),
         init = e.run.initial_population,
         gens = e.run.generations,
         off = e.run.offspring_per_generation,
     )
+}
+
+/// `n` things, in words: "1 run", "2 runs".
+fn counted(n: usize, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
+    }
 }

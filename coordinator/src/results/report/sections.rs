@@ -128,7 +128,11 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
         }
         pictures.push(Picture {
             name: stem.to_string(),
-            caption: format!("{title}, per generation: mean ± sd over repeats."),
+            caption: if label == "fitness" {
+                format!("{title}, per generation: mean ± sd over the repeats whose library holds a design; no point while none does (an empty library has no fitness).")
+            } else {
+                format!("{title}, per generation: mean ± sd over repeats.")
+            },
             svg: line_chart(title, "generation", label, &s),
         });
         if stem == "qd_score" {
@@ -243,10 +247,12 @@ pub(super) fn schemes(out: &mut Page, summary: &Summary) {
             ]);
         }
     }
-    page.push_str("<p>Mann-Whitney U tests between every pair of schemes (two-sided, tie-corrected; exact for small samples without ties, normal approximation otherwise).</p>\n");
     if rows.is_empty() {
-        page.push_str("<p>Only one scheme: nothing to compare.</p>\n");
+        // No empty table: there is nothing to test.
+        page.push_str("<p>Only one scheme: no Mann-Whitney test between schemes.</p>\n");
+        return;
     }
+    page.push_str("<p>Mann-Whitney U tests between every pair of schemes (two-sided, tie-corrected; exact for small samples without ties, normal approximation otherwise).</p>\n");
     add_table(page, tables, "mann_whitney", &header, &rows);
 }
 
