@@ -148,6 +148,17 @@ fn check_lists_the_paper_runs() {
     );
     // And how long, from full-length trials simulated now on this machine.
     assert!(text.contains("time on this machine's"), "{text}");
+    // Split by scheme: an ES candidate is 21 trials.
+    assert!(
+        text.contains(
+            "  es      20 runs x 240400 candidates x 21 trials = 100968000 trials, at most"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("  static  20 runs x 240400 candidates x 1 trials = 4808000 trials, at most"),
+        "{text}"
+    );
     assert!(text.contains("trials of MAX to their end in"), "{text}");
 
     let out = run(

@@ -91,13 +91,21 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     // to its end, measured now on this machine, or else from MAX's measured trial on the
     // development machine (BENCHMARKS.md: 0.124 ms a physics step on one core).
     let per_run = e.run.candidates_per_run();
-    let trials: u64 = runs
+    // Trials per candidate: an ES candidate tunes its gait in es_iterations more.
+    let trials_per_candidate = |scheme| match scheme {
+        strider_common::Scheme::Es => u64::from(e.run.es_iterations) + 1,
+        _ => 1,
+    };
+    // Each scheme: its runs and their trials at most.
+    let by_scheme: Vec<(strider_common::Scheme, u64, u64)> = e
+        .schemes
         .iter()
-        .map(|r| match r.scheme {
-            strider_common::Scheme::Es => per_run * (u64::from(e.run.es_iterations) + 1),
-            _ => per_run,
+        .map(|&scheme| {
+            let n = runs.iter().filter(|r| r.scheme == scheme).count() as u64;
+            (scheme, n, n * per_run * trials_per_candidate(scheme))
         })
-        .sum();
+        .collect();
+    let trials: u64 = by_scheme.iter().map(|s| s.2).sum();
     outln!(
         "cost: {} candidates, at most {} trials (an ES candidate is {} trials){}",
         per_run * runs.len() as u64,
@@ -132,6 +140,14 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         hours_text(upper / 3600.0),
         thread_seconds * 1e3,
     );
+    for (scheme, n, scheme_trials) in &by_scheme {
+        outln!(
+            "  {:<7} {n} runs x {per_run} candidates x {} trials = {scheme_trials} trials, at most {}",
+            scheme.name(),
+            trials_per_candidate(*scheme),
+            hours_text(*scheme_trials as f64 * thread_seconds / cores.get() as f64 / 3600.0)
+        );
+    }
     for r in runs {
         outln!(
             "  {:<7} repeat {:>3}  seed {}",
