@@ -6,6 +6,9 @@ Strider's distance.
 
 Usage: python3 tests/python/pybullet_agreement.py GENOMES.json [--worker PATH] [--hz 4000]
            [--scheme static|genome] [--experiment FILE] [--out DIR]
+           [--friction 0.8] [--cone 1]
+--friction and --cone go to every replay (pybullet_replay.py says what they do): with
+--friction 0.6 the 40 fittest elites of docs/model.md section 6 agree within its bars.
 GENOMES.json: `strider-coordinator export --format json` (every run's elites) or a JSON
 array of genomes. Prints one JSON line per design, then a summary line.
 """
@@ -24,6 +27,8 @@ ap.add_argument("--hz", type=float, default=4000.0)
 ap.add_argument("--scheme", default="static")
 ap.add_argument("--experiment")
 ap.add_argument("--out")
+ap.add_argument("--friction", type=float, default=0.8)
+ap.add_argument("--cone", type=int, choices=[0, 1], default=1)
 args = ap.parse_args()
 
 with open(args.genomes) as f:
@@ -55,7 +60,8 @@ for i, g in enumerate(genomes):
         row["our_energy_j"] = stats["energy"]
         theirs = json.loads(subprocess.run(
             [sys.executable, os.path.join(here, "pybullet_replay.py"), base + ".urdf",
-             base + ".start_pose.json", base + ".csv", "--hz", str(args.hz)],
+             base + ".start_pose.json", base + ".csv", "--hz", str(args.hz),
+             "--friction", str(args.friction), "--cone", str(args.cone)],
             check=True, capture_output=True, text=True).stdout)
         row["pybullet"] = theirs
         if theirs["upright"]:
@@ -67,4 +73,5 @@ for i, g in enumerate(genomes):
     print(json.dumps(row), flush=True)
 
 print(json.dumps({"designs": len(genomes), "completed_in_strider": completed,
-                  "upright_in_pybullet": upright, "within_10_percent": close, "hz": args.hz}))
+                  "upright_in_pybullet": upright, "within_10_percent": close, "hz": args.hz,
+                  "friction": args.friction, "cone": args.cone}))

@@ -14,7 +14,13 @@ joint: light lower legs need about 4000 Hz (the default; MAX walks the same at 1
 
 Usage: python3 pybullet_replay.py DESIGN.urdf DESIGN.start_pose.json TRACE.csv
            [--hz 4000] [--trial-seconds 5] [--max-tilt 45] [--after-max-tilt 20]
-           [--min-height-fraction 0.5] [--friction 0.8]
+           [--min-height-fraction 0.5] [--friction 0.8] [--cone 1]
+           [--contact-stiffness 0 --contact-damping 0]
+
+The contact knobs are for measuring where the engines differ (docs/model.md section 6):
+--friction is the robot's coefficient against the ground (Strider's is 0.8); --cone 0 uses
+Bullet's pyramid friction instead of its default cone; a --contact-stiffness above 0 (N/m,
+with --contact-damping, Ns/m) makes Bullet's contacts soft instead of rigid.
 """
 import argparse
 import csv
@@ -34,6 +40,9 @@ ap.add_argument("--max-tilt", type=float, default=45.0)
 ap.add_argument("--after-max-tilt", type=float, default=20.0)
 ap.add_argument("--min-height-fraction", type=float, default=0.5)
 ap.add_argument("--friction", type=float, default=0.8)
+ap.add_argument("--cone", type=int, choices=[0, 1], default=1)
+ap.add_argument("--contact-stiffness", type=float, default=0.0)
+ap.add_argument("--contact-damping", type=float, default=0.0)
 args = ap.parse_args()
 
 # The servo of every joint, from the URDF.
@@ -61,7 +70,7 @@ with open(args.start_pose) as f:
 p.connect(p.DIRECT)
 p.setGravity(0, 0, -9.81)
 dt = 1.0 / args.hz
-p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=1)
+p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=1, enableConeFriction=args.cone)
 plane = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE))
 robot = p.loadURDF(
     args.urdf,
@@ -88,6 +97,9 @@ p.changeDynamics(plane, -1, lateralFriction=1.0, restitution=0.0)
 for link in range(-1, n):
     p.changeDynamics(robot, link, lateralFriction=args.friction, restitution=0.0,
                      linearDamping=0.0, angularDamping=0.0, jointDamping=0.0)
+    if args.contact_stiffness > 0:
+        p.changeDynamics(robot, link, contactStiffness=args.contact_stiffness,
+                         contactDamping=args.contact_damping)
 p.setJointMotorControlArray(robot, joints, p.VELOCITY_CONTROL, forces=[0.0] * len(joints))
 gains = [servo[name] for name in names]
 masses = [p.getDynamicsInfo(robot, link)[0] for link in range(-1, n)]

@@ -133,5 +133,27 @@ fn pybullet_replays_max_with_the_same_gait_and_drive_law_and_agrees() {
         seen["peak_torque_ratio"].as_f64().unwrap() <= 1.0 + 1e-9,
         "{seen}"
     );
+    // The friction knob (what the engines' disagreement on the fittest elites is put down
+    // to, docs/model.md section 6) reaches Bullet: on a near-frictionless floor the same
+    // gait makes a fraction of the way, or the robot falls.
+    let slippery = Command::new(python)
+        .arg(workspace_root().join("tests/python/pybullet_replay.py"))
+        .arg(&urdf)
+        .arg(dir.join("max.start_pose.json"))
+        .arg(&trace)
+        .args(["--hz", "1000", "--friction", "0.02"])
+        .output()
+        .expect("python starts");
+    assert!(
+        slippery.status.success(),
+        "{}",
+        String::from_utf8_lossy(&slippery.stderr)
+    );
+    let slid: serde_json::Value = serde_json::from_slice(&slippery.stdout).unwrap();
+    println!("pybullet at friction 0.02 {slid}");
+    assert!(
+        slid["upright"] == false || slid["distance_m"].as_f64().unwrap() < 0.3 * d,
+        "MAX at friction 0.02: {slid}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
