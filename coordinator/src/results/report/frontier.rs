@@ -93,7 +93,7 @@ pub(super) fn frontier(
         "speed m/s",
         "ended at s",
         "legs per side",
-        "mass kg",
+        "mass kg (without payload)",
         "height m",
     ]
     .map(String::from)

@@ -470,12 +470,14 @@ pub(super) fn drawings(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunData
             let plan = BodyPlan::new(&el.genome.morphology, payload);
             let pose = StartPose::new(&plan, &el.genome.controller);
             let title = format!(
-                "{label}: run {} cell {}, fitness {:.3}, {} legs, {:.1} kg, {:.2} m tall",
+                "{label}: run {} cell {}, fitness {:.3}, {} legs, {:.1} kg ({:.1} kg with the {} kg payload), {:.2} m tall",
                 run.id,
                 cell.0,
                 el.fitness,
                 plan.legs.len(),
+                plan.mass_without_payload(),
                 plan.total_mass(),
+                payload,
                 pose.height
             );
             let p = Picture {

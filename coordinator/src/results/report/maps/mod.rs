@@ -97,11 +97,13 @@ fn bin_label(grid: &FeatureGrid, feature: usize, bin: u32) -> String {
     }
 }
 
-/// A feature's axis title: its d-number, name and unit.
+/// A feature's axis title: its d-number, name and unit (the mass is with the payload,
+/// and says so: the brief's mass limit and the near-miss table are without it).
 fn axis_title(feature: usize) -> String {
-    match FEATURE_UNITS[feature] {
-        "" => format!("d{} {}", feature + 1, FEATURE_NAMES[feature]),
-        u => format!("d{} {} ({u})", feature + 1, FEATURE_NAMES[feature]),
+    match (FEATURE_UNITS[feature], FEATURE_NAMES[feature]) {
+        ("", name) => format!("d{} {name}", feature + 1),
+        (u, name @ "total_mass") => format!("d{} {name} ({u}, with payload)", feature + 1),
+        (u, name) => format!("d{} {name} ({u})", feature + 1),
     }
 }
 
@@ -501,7 +503,7 @@ mod tests {
         );
         assert_eq!(bin_label(&grid, 0, 1), "2.16–2.32 m");
         assert_eq!(bin_label(&grid, 2, 4), "≥ 5.20");
-        assert_eq!(axis_title(1), "d2 total_mass (kg)");
+        assert_eq!(axis_title(1), "d2 total_mass (kg, with payload)");
         assert_eq!(axis_title(4), "d5 length_mult");
     }
 
