@@ -157,7 +157,7 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
         map.contains("&lt; 55 kg") && map.contains("≥ 70 kg"),
         "{map}"
     );
-    assert!(map.contains("d2 total_mass (kg)"), "{map}");
+    assert!(map.contains("d2 total_mass (kg, with payload)"), "{map}");
     assert!(map.contains("linear"), "{map}");
     assert!(html.contains("The red ring marks MAX"));
     look_at_it_in_chromium(&pages, &dir);
@@ -230,7 +230,7 @@ fn look_at_it_in_chromium(pages: &std::path::Path, dir: &std::path::Path) {
             "the colour legend with its unit",
             "fitness (1 / cost of transport)",
         ),
-        ("a map axis with its unit", "d2 total_mass (kg)"),
+        ("a map axis with its unit", "d2 total_mass (kg, with payload)"),
         ("the map's key", "Key: one block of the map, enlarged"),
     ] {
         assert!(
