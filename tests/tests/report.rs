@@ -230,7 +230,10 @@ fn look_at_it_in_chromium(pages: &std::path::Path, dir: &std::path::Path) {
             "the colour legend with its unit",
             "fitness (1 / cost of transport)",
         ),
-        ("a map axis with its unit", "d2 total_mass (kg, with payload)"),
+        (
+            "a map axis with its unit",
+            "d2 total_mass (kg, with payload)",
+        ),
         ("the map's key", "Key: one block of the map, enlarged"),
     ] {
         assert!(
