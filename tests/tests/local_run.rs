@@ -248,7 +248,7 @@ fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to
     .unwrap();
     assert!((mass - trial_mass).abs() < 1e-9, "{mass} vs {trial_mass}");
     assert!(
-        robot.name.contains(&format!("cell {}", best[3])),
+        robot.name.contains(&format!("cell_{}", best[3])),
         "{}",
         robot.name
     );
