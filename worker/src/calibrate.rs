@@ -28,11 +28,6 @@ pub struct Calibration {
 }
 
 impl Calibration {
-    /// Wall seconds per full-length trial with every thread busy (trials overlap).
-    pub fn seconds_per_trial(&self) -> f64 {
-        self.wall_seconds / self.trials as f64
-    }
-
     /// Seconds one thread spends on one full-length trial: the fastest measured, so that
     /// the estimate does not grow with whatever else the machine runs meanwhile (the
     /// mean of a loaded minute read 3.5x a quiet one's).
