@@ -16,6 +16,7 @@ pub mod ids;
 pub mod inspect;
 pub mod kinematics;
 pub mod mass;
+pub mod motor_sizing;
 pub mod outcome;
 pub mod params;
 pub mod pose;

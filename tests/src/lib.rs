@@ -2,6 +2,7 @@
 
 pub mod coordinator;
 pub mod slurm;
+pub mod webdriver;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
@@ -94,10 +95,16 @@ pub fn skip_without(what: &str) {
 
 /// Whether `program` is on PATH (or in the system's sbin directories).
 pub fn installed(program: &str) -> bool {
+    which(program).is_some()
+}
+
+/// Where `program` is on the PATH (or in /usr/sbin, /sbin).
+pub fn which(program: &str) -> Option<PathBuf> {
     let path = std::env::var_os("PATH").unwrap_or_default();
     std::env::split_paths(&path)
         .chain(["/usr/sbin", "/sbin"].map(PathBuf::from))
-        .any(|d| d.join(program).is_file())
+        .map(|d| d.join(program))
+        .find(|p| p.is_file())
 }
 
 /// The secret file of a test directory, written once (atomically): rewriting it while a

@@ -83,7 +83,10 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     let links = attribute_values(&html, "href");
     assert!(links.len() >= 2 * figures.len() + 6, "{links:?}");
     for link in links {
-        assert!(pages.join(link).is_file(), "broken link {link}");
+        match link.strip_prefix('#') {
+            Some(id) => assert!(html.contains(&format!("id=\"{id}\"")), "no #{id}"),
+            None => assert!(pages.join(link).is_file(), "broken link {link}"),
+        }
     }
     // The tables hold what the designer reads.
     let mw = std::fs::read_to_string(pages.join("mann_whitney.csv")).unwrap();
@@ -161,6 +164,7 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     assert!(map.contains("linear"), "{map}");
     assert!(html.contains("The red ring marks MAX"));
     look_at_it_in_chromium(&pages, &dir);
+    click_through_the_workbench(&pages, &db, &dir);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -298,4 +302,219 @@ fn a_report_of_a_missing_run_is_refused_by_name() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no database at"));
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The design the database stores in `cell` of `run`'s library: fitness and the trial's
+/// speed, cost of transport and mass (with payload), read with sqlite3 as a user would.
+fn stored_elite(db: &std::path::Path, run: u64, cell: u64) -> (f64, f64, f64, f64) {
+    let text = strider_tests::sqlite(
+        db,
+        &format!(
+            "SELECT c.fitness, k.outcome FROM cells c JOIN candidates k \
+             ON k.run_id = c.run_id AND k.number = c.candidate \
+             WHERE c.run_id = {run} AND c.cell = {cell}"
+        ),
+    );
+    let (fitness, outcome) = text.trim().split_once('|').expect("one elite row");
+    let outcome: serde_json::Value = serde_json::from_str(outcome).unwrap();
+    let stats = &outcome["stats"];
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    (
+        fitness.parse().unwrap(),
+        f(&stats["speed"]),
+        f(&stats["cost_of_transport"]),
+        f(&stats["mass"]),
+    )
+}
+
+/// The design card now open shows the elite in `cell` of `run` as stored, and its
+/// downloads are the files `export --elite RUN:CELL` writes.
+fn check_card(
+    browser: &strider_tests::webdriver::Browser,
+    pages: &std::path::Path,
+    db: &std::path::Path,
+    dir: &std::path::Path,
+    run: u64,
+    cell: u64,
+) {
+    let card = browser.find("#card");
+    assert!(browser.displayed(&card), "the card did not open");
+    let title = browser.find("#card h3");
+    assert_eq!(
+        browser.attribute(&title, "data-key").as_deref(),
+        Some(format!("f{cell}").as_str())
+    );
+    assert!(browser.text(&title).contains(&format!("cell {cell}")));
+    let field = |name: &str| browser.text(&browser.find(&format!("#card td[data-field={name}]")));
+    let (fitness, speed, cot, mass) = stored_elite(db, run, cell);
+    assert_eq!(field("fitness"), format!("{fitness:.4}"));
+    assert_eq!(field("speed"), format!("{speed:.3}"));
+    assert_eq!(field("cot"), format!("{cot:.4}"));
+    assert_eq!(field("mass"), format!("{mass:.2}"));
+    // The card's motor sizing has a row per joint (three per leg) and the drawings load.
+    let legs: usize = field("legs").split(' ').next().unwrap().parse().unwrap();
+    assert_eq!(
+        browser.find_all("#card table.motors tr").len(),
+        1 + 3 * legs
+    );
+    let drawing = browser.find("#card img");
+    let loaded = browser.script(
+        "const i = document.querySelector('#card img'); return i.complete && i.naturalWidth > 0;",
+    );
+    assert_eq!(
+        loaded,
+        serde_json::Value::Bool(true),
+        "{:?}",
+        browser.attribute(&drawing, "src")
+    );
+    // Downloads: the same bytes as the command line's.
+    let download = |what: &str| {
+        let a = browser.find(&format!("#card a[data-download={what}]"));
+        let href = browser.attribute(&a, "href").expect("a download link");
+        std::fs::read(pages.join(href)).unwrap()
+    };
+    let elite = format!("{run}:{cell}");
+    let genome = dir.join(format!("export_{cell}.json"));
+    let urdf = dir.join(format!("export_{cell}.urdf"));
+    let db = db.to_str().unwrap();
+    run_ok(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db,
+            "--elite",
+            &elite,
+            "--genome",
+            genome.to_str().unwrap(),
+        ],
+    );
+    run_ok(
+        "strider-coordinator",
+        &[
+            "export",
+            "--db",
+            db,
+            "--elite",
+            &elite,
+            "--urdf",
+            urdf.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        download("genome"),
+        std::fs::read(&genome).unwrap(),
+        "genome"
+    );
+    assert_eq!(download("urdf"), std::fs::read(&urdf).unwrap(), "URDF");
+    let pose = dir.join(format!("export_{cell}.start_pose.json"));
+    assert_eq!(
+        download("pose"),
+        std::fs::read(&pose).unwrap(),
+        "start pose"
+    );
+}
+
+/// The workbench as a designer uses it, in a real Chromium driven by chromedriver: a click
+/// on a cell of the library map, then on a row of the table of designs, opens that
+/// design's card (checked against the database and the command line's exports); the
+/// table sorts by a clicked header; the near misses toggle swaps the table's designs.
+fn click_through_the_workbench(
+    pages: &std::path::Path,
+    db: &std::path::Path,
+    dir: &std::path::Path,
+) {
+    use strider_tests::webdriver::Browser;
+    let Some(chromium) = chromium() else {
+        strider_tests::skip_without("Chromium (Debian's chromium package)");
+        return;
+    };
+    let Some(browser) = Browser::start(chromium, &dir.join("profile-workbench")) else {
+        strider_tests::skip_without("chromedriver (Debian's chromium-driver package)");
+        return;
+    };
+    browser.goto(&format!("file://{}", pages.join("report.html").display()));
+    let run = browser
+        .script("return JSON.parse(document.getElementById('design-data').textContent).run;")
+        .as_u64()
+        .expect("the page names its run");
+    // A cell of the library map.
+    let cells = browser.find_all("#library_map rect[data-cell]");
+    assert!(!cells.is_empty(), "no design on the library map");
+    let target = &cells[cells.len() / 2];
+    let cell: u64 = browser
+        .attribute(target, "data-cell")
+        .unwrap()
+        .parse()
+        .unwrap();
+    browser.click(target);
+    check_card(&browser, pages, db, dir, run, cell);
+    browser.click(&browser.find("#card .close"));
+    assert!(
+        !browser.displayed(&browser.find("#card")),
+        "the card did not close"
+    );
+
+    // The table: sorted by fitness, best first; a click on a header sorts by it.
+    let rows = browser.find_all("#designs tbody tr");
+    assert_eq!(rows.len(), cells.len(), "a row per design of the map");
+    let fitness_column = || -> Vec<f64> {
+        let header: Vec<String> = browser
+            .find_all("#designs thead th")
+            .iter()
+            .map(|th| browser.text(th))
+            .collect();
+        let k = header
+            .iter()
+            .position(|h| h.starts_with("fitness"))
+            .expect("a fitness column");
+        browser
+            .find_all(&format!("#designs tbody td:nth-child({})", k + 1))
+            .iter()
+            .map(|td| browser.text(td).parse().unwrap())
+            .collect()
+    };
+    let fitness = fitness_column();
+    assert!(fitness.windows(2).all(|w| w[0] >= w[1]), "{fitness:?}");
+    browser.click(&browser.find("#designs th[data-sort=fitness]"));
+    let ascending = fitness_column();
+    assert!(ascending.windows(2).all(|w| w[0] <= w[1]), "{ascending:?}");
+    // A row opens its design (another than the map's, where there is another).
+    let rows = browser.find_all("#designs tbody tr");
+    let keys: Vec<String> = rows
+        .iter()
+        .map(|r| browser.attribute(r, "data-key").unwrap())
+        .collect();
+    let k = keys
+        .iter()
+        .position(|k| *k != format!("f{cell}"))
+        .unwrap_or(0);
+    let (row, key) = (&rows[k], &keys[k]);
+    let cell: u64 = key
+        .strip_prefix('f')
+        .expect("a feasible design")
+        .parse()
+        .unwrap();
+    browser.click(row);
+    check_card(&browser, pages, db, dir, run, cell);
+    browser.click(&browser.find("#card .close"));
+
+    // The toggle: the near misses, each with what it misses.
+    browser.click(&browser.find("input[name=library][value=infeasible]"));
+    let near = browser.find_all("#designs tbody tr");
+    let stored: usize = strider_tests::sqlite(
+        db,
+        &format!("SELECT count(*) FROM infeasible_cells WHERE run_id = {run}"),
+    )
+    .trim()
+    .parse()
+    .unwrap();
+    assert!(
+        stored > 0,
+        "the run keeps near misses (feasible-infeasible search)"
+    );
+    assert_eq!(near.len(), stored, "a row per near miss");
+    for r in &near {
+        assert!(browser.attribute(r, "data-key").unwrap().starts_with('i'));
+    }
 }

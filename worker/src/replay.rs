@@ -52,3 +52,28 @@ impl Observer for Replay {
         }
     }
 }
+
+/// What replaying a design's trial measured: each joint's load, and the frames of an
+/// animated replay when they were asked for.
+pub struct Measured {
+    pub motors: Vec<strider_common::motor_sizing::JointLoad>,
+    pub frames: Option<Vec<Frame3>>,
+}
+
+/// Replays `genome`'s trial with the controller it holds (the one it was evaluated with),
+/// measuring its motors' loads, and keeping frames every `frame_seconds` if given.
+pub fn measure(
+    ctx: &strider_common::EvalContext,
+    genome: &strider_common::Genome,
+    frame_seconds: Option<f64>,
+) -> Measured {
+    use crate::trial_outcome::evaluate_controller;
+    use strider_common::motor_sizing::MotorSizing;
+    let plan = strider_common::BodyPlan::new(&genome.morphology, ctx.brief.payload);
+    let mut watch = (MotorSizing::default(), Replay::default());
+    evaluate_controller(ctx, genome, &plan, &genome.controller, &mut watch);
+    Measured {
+        motors: watch.0.loads(&plan),
+        frames: frame_seconds.map(|s| watch.1.every(s)),
+    }
+}

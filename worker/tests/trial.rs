@@ -751,3 +751,39 @@ fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
     let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&confirmed), outcome_hash(&plain));
 }
+
+#[test]
+fn motor_sizing_sees_the_trials_own_torques_and_work() {
+    // The report's motor sizing replays a design's trial: its peak torques are the trial's
+    // (the largest peak over limit is the outcome's peak torque ratio), no joint passes its
+    // limit (to the f32 rounding the drive allows), and RMS figures stay under the peaks.
+    let ctx = ctx();
+    let g = max();
+    let plan = BodyPlan::new(&g.morphology, ctx.brief.payload);
+    let outcome = evaluate_controller(&ctx, &g, &plan, &g.controller, &mut ());
+    let stats = outcome.stats().expect("MAX completes its trial");
+    let m = strider_worker::replay::measure(&ctx, &g, Some(0.5));
+    assert_eq!(m.motors.len(), plan.legs.len() * 3);
+    let ratio = m
+        .motors
+        .iter()
+        .map(|l| l.peak_torque / l.torque_limit)
+        .fold(0.0, f64::max);
+    assert_eq!(ratio, stats.gait.peak_torque_ratio);
+    for l in &m.motors {
+        let rounding = strider_worker::sim::drive::LIMIT_ROUNDING;
+        assert!(l.peak_torque <= l.torque_limit * (1.0 + rounding), "{l:?}");
+        assert!(
+            l.rms_torque <= l.peak_torque && l.rms_power <= l.peak_power,
+            "{l:?}"
+        );
+        assert!(l.peak_power > 0.0, "{l:?}");
+    }
+    // Frames every half second over the trial and the window after it.
+    let frames = m.frames.expect("frames were asked for");
+    assert!(
+        frames.len() >= (stats.duration / 0.5) as usize,
+        "{}",
+        frames.len()
+    );
+}

@@ -169,10 +169,7 @@ async fn export_urdf(
     let found = library_export::find(&runs, choice, experiment.features.cell_count())
         .map_err(anyhow::Error::msg)?;
     let plan = BodyPlan::new(&found.genome.morphology, experiment.brief.payload);
-    let name = format!(
-        "{} run {} cell {}",
-        experiment.name, found.run, found.cell.0
-    );
+    let name = library_export::urdf_robot_name(&experiment.name, found.run, found.cell);
     let files = strider_common::urdf::files(&name, &plan, &found.genome.controller, urdf);
     let pose = files[1].0.clone();
     let mut out = strider_process::files::Outputs::new();

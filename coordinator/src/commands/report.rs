@@ -3,9 +3,12 @@
 
 use super::open::open_existing;
 use super::Exit;
+use crate::db::{Db, EliteFilter};
+use crate::results::report::designs::{self, DesignTrial, DesignTrials, Library};
 use crate::results::report::{png, Inputs, RunData};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
+use strider_common::Experiment;
 use strider_common::RunId;
 use strider_process::files::Outputs;
 
@@ -19,8 +22,17 @@ pub struct ReportArgs {
     #[arg(long)]
     out: PathBuf,
     /// The run whose library is drawn (its id; the one with the best design by default).
+    /// Its designs are the ones the page's table, scatter and cards hold.
     #[arg(long)]
     run: Option<RunId>,
+    /// How many of the drawn run's fittest feasible designs, and of its nearest near
+    /// misses, get an animated replay on their design card (every design gets its motor
+    /// sizing from a replay of its trial).
+    #[arg(long, default_value_t = 10)]
+    replays: usize,
+    /// Threads to replay trials on (all cores by default).
+    #[arg(long)]
+    threads: Option<std::num::NonZeroUsize>,
 }
 
 /// Writes the report into `--out`.
@@ -55,12 +67,17 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map_or(RunId(0), |(id, _)| id)
     });
+    let trials = match runs.iter().find(|r| r.id == chosen) {
+        Some(run) => Some(design_trials(&db, &experiment, run, args.replays, args.threads).await?),
+        None => None,
+    };
     let max = strider_common::reference::max();
     let report = crate::results::report::build(&Inputs {
         experiment: &experiment,
         runs: &runs,
         chosen,
         reference: Some((&max, "MAX")),
+        trials: trials.as_ref(),
     });
     // Every file is written, or none (a directory this command made is removed again).
     let made = !out.exists();
@@ -81,6 +98,14 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
     for t in &report.tables {
         files.add(out.join(format!("{}.csv", t.name)), t.csv.as_bytes());
     }
+    if !report.files.is_empty() {
+        let folder = out.join(designs::FOLDER);
+        std::fs::create_dir_all(&folder)
+            .with_context(|| format!("creating {}", folder.display()))?;
+    }
+    for f in &report.files {
+        files.add(out.join(&f.path), f.bytes.as_slice());
+    }
     if let Err(e) = files.commit() {
         if made {
             let _ = std::fs::remove_dir(out);
@@ -88,10 +113,145 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
         return Err(e.into());
     }
     eprintln!(
-        "wrote {} ({} pictures as SVG and PNG, {} tables as CSV)",
+        "wrote {} ({} pictures as SVG and PNG, {} tables as CSV, {} files of {} designs in {}/)",
         out.join("report.html").display(),
         report.pictures.len(),
-        report.tables.len()
+        report.tables.len(),
+        report.files.len(),
+        trials.as_ref().map_or(0, |t| t.designs.len()),
+        designs::FOLDER
     );
     Ok(Exit::Success)
+}
+
+/// The drawn run's stored outcomes, and what replaying each design's trial measures: its
+/// motors' loads, and for the `replays` fittest feasible designs and nearest near misses
+/// an animated replay.
+async fn design_trials(
+    db: &Db,
+    experiment: &Experiment,
+    run: &RunData,
+    replays: usize,
+    threads: Option<std::num::NonZeroUsize>,
+) -> anyhow::Result<DesignTrials> {
+    let mut trials = DesignTrials {
+        replays,
+        ..DesignTrials::default()
+    };
+    let filter = EliteFilter {
+        run: Some(run.id),
+        ..EliteFilter::default()
+    };
+    for e in db.list_elites(&filter, 0, u32::MAX).await? {
+        trials.designs.insert(
+            (Library::Feasible, e.cell),
+            DesignTrial {
+                outcome: Some(e.outcome),
+                ..DesignTrial::default()
+            },
+        );
+    }
+    for e in db.list_infeasible(run.id).await? {
+        trials.designs.insert(
+            (Library::Infeasible, e.cell),
+            DesignTrial {
+                outcome: Some(e.outcome),
+                ..DesignTrial::default()
+            },
+        );
+    }
+    replay(experiment, run, &mut trials, threads).await?;
+    Ok(trials)
+}
+
+/// Replays every design of the run (motor sizing) and animates the chosen few.
+#[cfg(feature = "simulator")]
+async fn replay(
+    experiment: &Experiment,
+    run: &RunData,
+    trials: &mut DesignTrials,
+    threads: Option<std::num::NonZeroUsize>,
+) -> anyhow::Result<()> {
+    use strider_common::drawing::replay_svg;
+    use strider_common::{BodyPlan, EvalContext};
+    let mut fittest: Vec<_> = run.library.elites().collect();
+    fittest.sort_by(|a, b| b.1.fitness.total_cmp(&a.1.fitness));
+    let mut nearest: Vec<_> = run.infeasible.elites().collect();
+    nearest.sort_by_key(|n| std::cmp::Reverse(n.1.standing));
+    let animated: std::collections::HashSet<(Library, strider_common::CellIndex)> = fittest
+        .iter()
+        .take(trials.replays)
+        .map(|(c, _)| (Library::Feasible, *c))
+        .chain(
+            nearest
+                .iter()
+                .take(trials.replays)
+                .map(|(c, _)| (Library::Infeasible, *c)),
+        )
+        .collect();
+    let jobs: Vec<(
+        Library,
+        strider_common::CellIndex,
+        strider_common::Genome,
+        bool,
+    )> = run
+        .library
+        .elites()
+        .map(|(c, e)| (Library::Feasible, c, e.genome))
+        .chain(
+            run.infeasible
+                .elites()
+                .map(|(c, e)| (Library::Infeasible, c, e.genome)),
+        )
+        .map(|(l, c, g)| (l, c, g, animated.contains(&(l, c))))
+        .collect();
+    eprintln!(
+        "replaying the {} designs of run {} (motor sizing; {} animated)",
+        jobs.len(),
+        run.id,
+        animated.len()
+    );
+    let ctx = EvalContext::of(experiment);
+    let threads = threads.unwrap_or_else(strider_process::default_threads);
+    let payload = experiment.brief.payload;
+    let run_id = run.id;
+    let measured = tokio::task::spawn_blocking(move || {
+        strider_worker::batch::map_batch(&jobs, threads, |(library, cell, genome, animate)| {
+            let m = strider_worker::replay::measure(&ctx, genome, animate.then_some(0.1));
+            let replay = m.frames.map(|frames| {
+                let plan = BodyPlan::new(&genome.morphology, payload);
+                let near = if *library == Library::Infeasible {
+                    " (near miss)"
+                } else {
+                    ""
+                };
+                replay_svg(
+                    &plan,
+                    &frames,
+                    &format!("run {run_id} cell {}{near}: its trial", cell.0),
+                )
+            });
+            ((*library, *cell), m.motors, replay)
+        })
+    })
+    .await
+    .context("replaying the designs")?;
+    for (key, motors, replay) in measured {
+        let t = trials.designs.entry(key).or_default();
+        t.motors = Some(motors);
+        t.replay = replay;
+    }
+    Ok(())
+}
+
+/// Without the simulator: no replays, and the page says why.
+#[cfg(not(feature = "simulator"))]
+async fn replay(
+    _: &Experiment,
+    _: &RunData,
+    trials: &mut DesignTrials,
+    _: Option<std::num::NonZeroUsize>,
+) -> anyhow::Result<()> {
+    trials.missing = Some("This strider-coordinator was built without the simulator (cargo feature <code>simulator</code>): the design cards have no replay or motor sizing; make the report where a worker is built.".into());
+    Ok(())
 }

@@ -56,6 +56,12 @@ pub fn rows(run: &RunRecord, outcomes: &HashMap<CellIndex, Outcome>) -> Vec<Expo
         .collect()
 }
 
+/// The robot name an exported design's URDF carries: `name_run_0_cell_12` for experiment
+/// `name` (the report's downloads and `export --elite --urdf` give the same file).
+pub fn urdf_robot_name(experiment: &str, run: RunId, cell: CellIndex) -> String {
+    format!("{experiment} run {run} cell {}", cell.0)
+}
+
 /// Names of the trial statistics columns, in order.
 pub const STAT_NAMES: [&str; 6] = [
     "distance",

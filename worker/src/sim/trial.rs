@@ -73,6 +73,28 @@ pub trait Observer {
     const WANTS_SAMPLES: bool = true;
     /// Called after every control step.
     fn control_step(&mut self, sample: &Sample<'_>);
+    /// Called after every physics step of the trial (not of the stay-up window after it)
+    /// with each joint's applied torque (Nm) and speed (rad/s).
+    fn physics_step(&mut self, _torques: &[f64], _speeds: &[f64]) {}
+}
+
+impl<A: Observer, B: Observer> Observer for (A, B) {
+    const WANTS_SAMPLES: bool = A::WANTS_SAMPLES || B::WANTS_SAMPLES;
+    fn control_step(&mut self, sample: &Sample<'_>) {
+        self.0.control_step(sample);
+        self.1.control_step(sample);
+    }
+    fn physics_step(&mut self, torques: &[f64], speeds: &[f64]) {
+        self.0.physics_step(torques, speeds);
+        self.1.physics_step(torques, speeds);
+    }
+}
+
+impl Observer for strider_common::motor_sizing::MotorSizing {
+    fn control_step(&mut self, _: &Sample<'_>) {}
+    fn physics_step(&mut self, torques: &[f64], speeds: &[f64]) {
+        self.add(torques, speeds);
+    }
 }
 
 impl Observer for () {
@@ -224,6 +246,9 @@ pub fn run_trial_with<O: Observer>(
                 },
                 time,
             );
+        }
+        if O::WANTS_SAMPLES && step < steps {
+            observer.physics_step(&stepper.torques, &stepper.speeds);
         }
         // The observer sees the step that ends a trial too (a replay shows the fall).
         if O::WANTS_SAMPLES && (step + 1) % substeps == 0 {

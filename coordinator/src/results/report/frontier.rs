@@ -23,6 +23,7 @@ pub(super) fn frontier(
         html: page,
         pictures,
         tables,
+        ..
     } = out;
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[4]);
     let e = inp.experiment;

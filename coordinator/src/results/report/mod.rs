@@ -4,6 +4,7 @@
 //! the database and writing files is the CLI's job.
 
 pub mod charts;
+pub mod designs;
 mod frontier;
 pub mod maps;
 pub mod png;
@@ -55,10 +56,12 @@ pub struct Report {
     pub pictures: Vec<Picture>,
     /// The tables (also on the page).
     pub tables: Vec<Table>,
+    /// Each design's files (genome, URDF, start pose, drawing, replay), in `designs/`.
+    pub files: Vec<designs::DesignFile>,
 }
 
 /// The section headings of the page, in order (tests check each is there).
-pub const SECTIONS: [&str; 8] = [
+pub const SECTIONS: [&str; 9] = [
     "Progress per generation",
     "Comparing schemes",
     "The library of one run",
@@ -67,9 +70,9 @@ pub const SECTIONS: [&str; 8] = [
     "What the best designs look like",
     "Design rules",
     "Drawings of chosen designs",
+    "Every design: table, scatter and cards",
 ];
 
-/// What the report needs besides the runs.
 /// What the report needs besides the runs.
 pub struct Inputs<'a> {
     pub experiment: &'a Experiment,
@@ -79,6 +82,8 @@ pub struct Inputs<'a> {
     pub chosen: RunId,
     /// The reference design marked on the library map, with its name.
     pub reference: Option<(&'a Genome, &'a str)>,
+    /// The drawn run's stored trials and replays (None: figures from the library only).
+    pub trials: Option<&'a designs::DesignTrials>,
 }
 
 /// The page as the sections write it: its HTML body, pictures and tables.
@@ -87,6 +92,7 @@ pub(super) struct Page {
     html: String,
     pictures: Vec<Picture>,
     tables: Vec<Table>,
+    files: Vec<designs::DesignFile>,
 }
 
 /// Builds the report: each section in the order of [`SECTIONS`].
@@ -113,11 +119,13 @@ pub fn build(inp: &Inputs<'_>) -> Report {
     sections::best_designs(&mut out, &summary);
     sections::rules(&mut out, &summary);
     sections::drawings(&mut out, inp, chosen);
+    designs::workbench(&mut out, inp, chosen);
     let html = page_html(e, runs, &out.html, &out.tables);
     Report {
         html,
         pictures: out.pictures,
         tables: out.tables,
+        files: out.files,
     }
 }
 
@@ -162,7 +170,7 @@ fn page_html(e: &Experiment, runs: &[RunData], body: &str, tables: &[Table]) -> 
         let _ = write!(links, "<a href=\"{}.csv\">{}.csv</a> ", t.name, t.name);
     }
     format!(
-        r#"<!DOCTYPE html>
+        r##"<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
@@ -178,15 +186,20 @@ figure > svg {{ max-width: 100%; height: auto; }}
 figcaption {{ font-size: 90%; color: #444; max-width: 900px; }}
 figure.small {{ display: inline-block; vertical-align: top; width: 540px; margin-right: 1.5em; }}
 figure.small figcaption {{ max-width: 520px; }}
+{css}
 </style>
 </head>
 <body>
 <h1>Strider report: experiment “{name}”</h1>
 <p>{runs} ({schemes}; {repeats} each), {finished} finished. Initial population {init}, then up to {gens} generations of {off}. Fitness is 1 / cost of transport: higher walks further on less energy. Tables as CSV: {links}</p>
+<p><a href="#workbench">Browse every design</a>: click a cell of a map, a row or a point for its design card.</p>
 {body}
+<script>
+{script}
+</script>
 </body>
 </html>
-"#,
+"##,
         name = escape(&e.name),
         runs = counted(runs.len(), "run"),
         schemes = e
@@ -199,6 +212,8 @@ figure.small figcaption {{ max-width: 520px; }}
         init = e.run.initial_population,
         gens = e.run.generations,
         off = e.run.offspring_per_generation,
+        css = include_str!("workbench.css"),
+        script = include_str!("workbench.js"),
     )
 }
 

@@ -104,6 +104,7 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
         html: page,
         pictures,
         tables,
+        ..
     } = out;
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[0]);
     page.push_str("<p>For each scheme, the mean over its repeats (line) and one standard deviation either side (band).</p>\n");

@@ -113,6 +113,9 @@ pub fn frontier_marginals_svg(
             }
         }
         paint
+            .into_iter()
+            .map(|row| row.into_iter().map(|c| c.map(|c| (c, None))).collect())
+            .collect()
     });
     frontier_legend(&mut s, 50.0, height);
     document(

@@ -164,11 +164,13 @@ fn stack(
     );
     for (cell, fill) in painted {
         let (x, y) = stacked_position(grid, cell);
+        // The cell number lets the page open the design there (workbench.js).
         let _ = writeln!(
             s,
-            r#"<rect x="{:.1}" y="{:.1}" width="{CELL}" height="{CELL}" fill="{fill}"/>"#,
+            r#"<rect x="{:.1}" y="{:.1}" width="{CELL}" height="{CELL}" fill="{fill}" data-cell="{}"/>"#,
             LEFT + f64::from(x) * CELL,
             TOP + side - f64::from(y + 1) * CELL,
+            cell.0
         );
     }
     // Lines between blocks: thin every b cells, heavy every b^2.
@@ -383,21 +385,21 @@ fn stack_key(s: &mut String, grid: &FeatureGrid, x0: f64, y0: f64) {
     }
 }
 
-/// Best fitness per pair of bins of features `i` and `j` (None: no elite there),
-/// indexed `[bin_i][bin_j]`.
+/// Best fitness per pair of bins of features `i` and `j`, with the cell that holds it
+/// (None: no elite there), indexed `[bin_i][bin_j]`.
 pub fn marginal(
     grid: &FeatureGrid,
     library: &Library,
     i: usize,
     j: usize,
-) -> Vec<Vec<Option<f64>>> {
+) -> Vec<Vec<Option<(f64, CellIndex)>>> {
     let b = grid.bins as usize;
     let mut m = vec![vec![None; b]; b];
     for (cell, e) in library.elites() {
         let d = grid.bins_of_cell(cell).0;
-        let slot: &mut Option<f64> = &mut m[d[i] as usize][d[j] as usize];
-        if slot.is_none_or(|f| e.fitness > f) {
-            *slot = Some(e.fitness);
+        let slot: &mut Option<(f64, CellIndex)> = &mut m[d[i] as usize][d[j] as usize];
+        if slot.is_none_or(|(f, _)| e.fitness > f) {
+            *slot = Some((e.fitness, cell));
         }
     }
     m
@@ -412,7 +414,7 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
             .into_iter()
             .map(|row| {
                 row.into_iter()
-                    .map(|v| v.map(|f| colour(scale.t(f))))
+                    .map(|v| v.map(|(f, cell)| (colour(scale.t(f)), Some(cell))))
                     .collect()
             })
             .collect()
@@ -435,12 +437,12 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
 }
 
 /// Draws the fifteen pair maps into `s`, each bin pair filled by `fill(i, j)[bin_i][bin_j]`
-/// (grey when None); returns the height used, px.
+/// (grey when None), with the cell a click there opens if any; returns the height used, px.
 fn pair_maps(
     s: &mut String,
     grid: &FeatureGrid,
     title: &str,
-    fill: impl Fn(usize, usize) -> Vec<Vec<Option<String>>>,
+    fill: impl Fn(usize, usize) -> Vec<Vec<Option<(String, Option<CellIndex>)>>>,
 ) -> f64 {
     let b = f64::from(grid.bins);
     let cell = 18.0;
@@ -456,12 +458,16 @@ fn pair_maps(
         );
         for (bi, row) in fill(i, j).iter().enumerate() {
             for (bj, v) in row.iter().enumerate() {
+                let data = match v {
+                    Some((_, Some(c))) => format!(r#" data-cell="{}""#, c.0),
+                    _ => String::new(),
+                };
                 let _ = writeln!(
                     s,
-                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{}" stroke="#fff" stroke-width="0.5"/>"##,
+                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{}" stroke="#fff" stroke-width="0.5"{data}/>"##,
                     ox + bi as f64 * cell,
                     oy + map - (bj as f64 + 1.0) * cell,
-                    v.as_deref().unwrap_or(EMPTY)
+                    v.as_ref().map_or(EMPTY, |(c, _)| c.as_str())
                 );
             }
         }
