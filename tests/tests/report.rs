@@ -134,6 +134,42 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
         "{gens}"
     );
     assert!(gens.contains("\nstatic,qd_score,0,"), "{gens}");
+    // One meaning of evaluations: the report's are the mean over a scheme's repeats of the
+    // exported cumulative_evaluations (candidates drawn and checked, refusals included).
+    let exported = String::from_utf8(
+        run_ok(
+            "strider-coordinator",
+            &[
+                "export",
+                "--db",
+                db.to_str().unwrap(),
+                "--format",
+                "generations-csv",
+            ],
+        )
+        .stdout,
+    )
+    .unwrap();
+    let header: Vec<&str> = exported.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for scheme in ["static", "genome"] {
+        for g in [0, 8] {
+            let counts: Vec<f64> = exported
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').collect::<Vec<_>>())
+                .filter(|f| f[col("scheme")] == scheme && f[col("generation")] == g.to_string())
+                .map(|f| f[col("cumulative_evaluations")].parse().unwrap())
+                .collect();
+            let mean = counts.iter().sum::<f64>() / counts.len() as f64;
+            let reported: f64 = rows
+                .iter()
+                .find(|r| r[0] == scheme && r[1] == "qd_score" && r[2] == g.to_string())
+                .map(|r| r[3].parse().unwrap())
+                .unwrap();
+            assert_eq!(reported, mean, "{scheme} generation {g}: {counts:?}");
+        }
+    }
     // Numbers in the CSVs are numbers, whole: p-values and rule coefficients parse.
     for line in mw.lines().skip(1) {
         let p: f64 = line.split(',').nth(3).unwrap().parse().unwrap();

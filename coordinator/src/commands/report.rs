@@ -41,12 +41,15 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
     let (db, experiment) = open_existing(path).await?;
     let mut runs = Vec::new();
     for r in db.runs().await? {
-        let generations = db
-            .generations(r.id)
-            .await?
-            .into_iter()
-            .map(|(g, _, s)| (g, s))
+        let stored = db.generations(r.id).await?;
+        let evaluations = stored
+            .iter()
+            .scan(0, |total, (_, n, _)| {
+                *total += n;
+                Some(*total)
+            })
             .collect();
+        let generations = stored.into_iter().map(|(g, _, s)| (g, s)).collect();
         runs.push(RunData {
             id: r.id,
             scheme: r.spec.scheme,
@@ -54,6 +57,7 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
             library: r.library,
             infeasible: r.infeasible,
             generations,
+            evaluations,
         });
     }
     if let Some(id) = run {

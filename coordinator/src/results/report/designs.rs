@@ -10,7 +10,7 @@ use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::fmt::Write;
 use strider_common::drawing::design_svg;
-use strider_common::features::FEATURE_NAMES;
+use strider_common::features::{FEATURE_NAMES, FEATURE_UNITS};
 use strider_common::motor_sizing::JointLoad;
 use strider_common::{BodyPlan, CellIndex, Experiment, Genome, Outcome, StartPose};
 
@@ -136,6 +136,7 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
         "min_speed": e.brief.min_speed,
         "stays_up_seconds": e.trial.upright_after_feasible_seconds,
         "feature_names": FEATURE_NAMES,
+        "feature_units": FEATURE_UNITS,
         "designs": designs,
     });
     // "</" inside the data would end the script element early.
@@ -232,9 +233,11 @@ fn design_json(
             })
             .collect::<Vec<_>>()
     });
+    // As stored for a feasible design; from the genome (the same function) for a near
+    // miss, whose outcome holds none.
     let features = match outcome {
-        Some(Outcome::Valid { features, .. }) => Some(features.0.to_vec()),
-        _ => None,
+        Some(Outcome::Valid { features, .. }) => features.0,
+        _ => strider_common::Features::of(&genome.morphology, &plan).0,
     };
     let file = |suffix: &str| {
         files
@@ -254,7 +257,7 @@ fn design_json(
         "mass_without_payload": plan.mass_without_payload(),
         "height": pose.height,
         "stats": stats,
-        "features": features,
+        "features": features.to_vec(),
         "bins": e.features.bins_of_cell(cell).0.to_vec(),
         "motors": motors,
         "genome": genome,

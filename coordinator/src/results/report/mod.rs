@@ -29,6 +29,9 @@ pub struct RunData {
     pub infeasible: InfeasibleLibrary,
     /// Every committed generation's statistics, in order.
     pub generations: Vec<(u32, GenerationStats)>,
+    /// Evaluations by the end of each of those generations: candidates drawn and checked,
+    /// those refused before simulating included (the exports' `cumulative_evaluations`).
+    pub evaluations: Vec<u64>,
 }
 
 /// A picture: file stem, caption, SVG.

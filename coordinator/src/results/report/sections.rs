@@ -108,10 +108,24 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
     } = out;
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[0]);
     page.push_str("<p>For each scheme, the mean over its repeats (line) and one standard deviation either side (band).</p>\n");
-    page.push_str("<p>The QD score is the quality-diversity field's headline figure: the sum of fitness over the filled cells of the feasible library (as pyribs defines it, with offset 0: fitness, 1 / cost of transport, is never negative). Evaluations are candidates: the initial population, then offspring per generation (an ES candidate is up to 21 trials).</p>\n");
-    // Candidates evaluated by the end of generation g (the initial draws refused before
-    // simulating aside).
-    let evaluations = |g: f64| e.run.candidates_by(g as u32) as f64;
+    page.push_str("<p>The QD score is the quality-diversity field's headline figure: the sum of fitness over the filled cells of the feasible library (as pyribs defines it, with offset 0: fitness, 1 / cost of transport, is never negative). Evaluations are candidates drawn and checked, as the exports count them: the initial population's draws (those the pre-check refused before simulating included), then the offspring of each generation; an ES candidate is up to 21 trials. On the evaluations axis, the mean over a scheme's repeats.</p>\n");
+    // Evaluations by the end of generation g: the mean over the scheme's runs that got
+    // there of the stored count.
+    let evaluations = |scheme: &str, g: f64| {
+        let counts: Vec<f64> = runs
+            .iter()
+            .filter(|r| r.scheme.name() == scheme)
+            .filter_map(|r| {
+                let at = r.generations.iter().position(|(k, _)| f64::from(*k) == g)?;
+                r.evaluations.get(at).map(|&n| n as f64)
+            })
+            .collect();
+        if counts.is_empty() {
+            e.run.candidates_by(g as u32) as f64
+        } else {
+            counts.iter().sum::<f64>() / counts.len() as f64
+        }
+    };
     let mut gen_rows = Vec::new();
     for (stem, title, label, figure) in FIGURES {
         let s = series(e, runs, figure);
@@ -121,7 +135,7 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
                     sc.name.clone(),
                     stem.to_string(),
                     format!("{g}"),
-                    format!("{}", evaluations(g)),
+                    format!("{}", evaluations(&sc.name, g)),
                     format!("{m}"),
                     format!("{sd}"),
                 ]);
@@ -143,14 +157,14 @@ pub(super) fn progress(out: &mut Page, inp: &Inputs<'_>) {
                     points: sc
                         .points
                         .iter()
-                        .map(|&(g, m, sd)| (evaluations(g), m, sd))
+                        .map(|&(g, m, sd)| (evaluations(&sc.name, g), m, sd))
                         .collect(),
                     ..sc.clone()
                 })
                 .collect();
             pictures.push(Picture {
                 name: "qd_score_by_evaluations".into(),
-                caption: "QD score against evaluations (candidates): mean ± sd over repeats."
+                caption: "QD score against evaluations (candidates drawn and checked, the pre-check's refusals included; mean over repeats): mean ± sd over repeats."
                     .into(),
                 svg: line_chart(
                     "QD score against evaluations",

@@ -169,8 +169,8 @@
     return h("table", { class: "features" },
       h("tr", {}, h("th", {}, "feature"), h("th", {}, "value"), h("th", {}, "bin")),
       ...data.feature_names.map((name, i) => h("tr", {},
-        h("td", {}, "d" + (i + 1) + " " + name),
-        h("td", {}, d.features ? fixed(d.features[i], 3) : ""),
+        h("td", {}, "d" + (i + 1) + " " + name + (data.feature_units[i] ? " (" + data.feature_units[i] + (name === "total_mass" ? ", with payload" : "") + ")" : "")),
+        h("td", {}, fixed(d.features[i], 3)),
         h("td", {}, String(d.bins[i])))));
   }
 
