@@ -591,7 +591,7 @@ assert len(numeric) == len(lib.columns) - 1, 'a column is not numeric'
 best = lib.loc[lib.fitness.idxmax()]
 assert best.fitness > 0 and best.feature_total_mass > 0
 last = gen.sort_values('generation').groupby('run').last()
-assert {'qd_score', 'coverage', 'cumulative_evaluations', 'feasible_elites'} <= set(gen.columns)
+assert {'qd_score', 'coverage_percent', 'cumulative_evaluations', 'feasible_elites'} <= set(gen.columns)
 assert (gen.groupby('run').cumulative_evaluations.diff().dropna() > 0).all()
 assert (gen.groupby('run').generation.count() == 13).all(), gen.groupby('run').generation.count()
 print(len(lib), int(last.feasible_elites.sum()))

@@ -93,7 +93,15 @@ async fn export_all(path: &Path, only: Option<RunId>, format: Format) -> anyhow:
                     .generations(r.id)
                     .await?
                     .into_iter()
-                    .map(|(g, evaluations, s)| serde_json::json!({"generation": g, "evaluations": evaluations, "stats": s}))
+                    .map(|(g, evaluations, s)| {
+                        // Coverage in per cent, as everywhere a user reads it.
+                        let mut stats = serde_json::to_value(s).unwrap_or_default();
+                        if let Some(o) = stats.as_object_mut() {
+                            o.remove("coverage");
+                            o.insert("coverage_percent".into(), library_export::coverage_percent(s.coverage).into());
+                        }
+                        serde_json::json!({"generation": g, "evaluations": evaluations, "stats": stats})
+                    })
                     .collect();
                 let elites: Vec<_> = rows.iter().map(library_export::json).collect();
                 let infeasible: Vec<_> = db

@@ -111,10 +111,11 @@ pub fn csv_header() -> String {
 /// The per-generation CSV's header: the run, the generation, the candidates it evaluated
 /// (the initial population's draws for generation 0, those refused before simulating
 /// included) and all of the run's so far, then the library's statistics after it
-/// ([`GenerationStats`](crate::qd::library::GenerationStats)); the fitness columns are
+/// ([`GenerationStats`](crate::qd::library::GenerationStats), coverage in per cent of the
+/// cells, as the report, `analyse` and `status` give it); the fitness columns are
 /// blank while the feasible library is empty.
 pub const GENERATIONS_CSV_HEADER: &str = "run,scheme,repeat,generation,evaluations,\
-cumulative_evaluations,coverage,\
+cumulative_evaluations,coverage_percent,\
 feasible_elites,max_fitness,mean_fitness,min_fitness,qd_score,new,improved,discarded,\
 rejected,invalid,infeasible_elites,infeasible_only,infeasible_new,infeasible_improved";
 
@@ -126,6 +127,12 @@ fn blank_if_empty(s: &crate::qd::library::GenerationStats, figure: f64) -> Strin
     } else {
         figure.to_string()
     }
+}
+
+/// Coverage as every figure a user reads gives it: per cent of the cells (the database
+/// keeps the share, 0 to 1).
+pub fn coverage_percent(share: f64) -> f64 {
+    100.0 * share
 }
 
 /// One line of the per-generation CSV.
@@ -140,7 +147,7 @@ pub fn generations_csv_line(
         run.id,
         run.spec.scheme.name(),
         run.spec.repeat,
-        s.coverage,
+        coverage_percent(s.coverage),
         s.elites,
         blank_if_empty(s, s.max_fitness),
         blank_if_empty(s, s.mean_fitness),
