@@ -61,7 +61,7 @@ for joint in ET.parse(args.urdf).getroot().iter("joint"):
 with open(args.trace) as f:
     rows = list(csv.DictReader(f))
 target_columns = [c for c in rows[0] if "_target" in c]
-control_dt = float(rows[1]["time"]) - float(rows[0]["time"])
+control_dt = float(rows[1]["time_s"]) - float(rows[0]["time_s"])
 targets = [[float(r[c]) for c in target_columns] for r in rows]
 
 with open(args.start_pose) as f:

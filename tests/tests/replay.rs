@@ -51,13 +51,13 @@ fn assert_upright(e: &Experiment, genome: &Genome, trace: &str, what: &str) {
     let mut rows = trace.lines();
     let header: Vec<&str> = rows.next().unwrap().split(',').collect();
     let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
-    let first_q = col("r0_q0");
+    let first_q = col("r0_q0_rad");
     let mut n = 0;
     for row in rows {
         let v: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
-        let t = v[col("time")];
+        let t = v[col("time_s")];
         let body = Isometry3::from_parts(
-            Translation3::new(v[col("x")], v[col("y")], v[col("z")]),
+            Translation3::new(v[col("x_forward_m")], v[col("y_up_m")], v[col("z_right_m")]),
             UnitQuaternion::new_normalize(Quaternion::new(
                 v[col("qw")],
                 v[col("qx")],

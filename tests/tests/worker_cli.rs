@@ -38,8 +38,8 @@ fn eval_max_reports_its_walk_and_writes_a_trace() {
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     // time, pose (7), energy, then 18 angles, 18 torques and the 18 joint targets.
     assert_eq!(header.len(), 9 + 3 * 18);
-    assert_eq!(header[9], "r0_q0");
-    assert_eq!(header[9 + 2 * 18], "r0_target0");
+    assert_eq!(header[9], "r0_q0_rad");
+    assert_eq!(header[9 + 2 * 18], "r0_target0_rad");
     let rows: Vec<&str> = lines.collect();
     // One row per control step: the 5 s trial and the second it must stay up after it.
     assert_eq!(rows.len(), 180, "one row per control step");
@@ -170,7 +170,7 @@ fn eval_writes_every_file_asked_for_or_none() {
     );
     assert!(std::fs::read_to_string(&trace)
         .unwrap()
-        .starts_with("time,x,y,z"));
+        .starts_with("time_s,x_forward_m,y_up_m,z_right_m"));
     assert!(std::fs::read_to_string(&svg).unwrap().ends_with("</svg>\n"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

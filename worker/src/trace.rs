@@ -1,6 +1,9 @@
 //! A trial trace as CSV: one row per control step (at its end) with the body pose and
 //! every joint's angle, torque and the target it was driven toward over the step, for plots
 //! and replays (a second engine replays the targets: tests/python/pybullet_replay.py).
+//! Every column name ends in its unit (`_s`, `_m`, `_rad`, `_Nm`, `_J`; the quaternion
+//! has none); the world is y-up, x forward (the walking direction), z to the robot's right
+//! (docs/model.md section 1).
 
 use crate::sim::trial::{Observer, Sample};
 use std::io::{self, Write};
@@ -15,23 +18,23 @@ pub struct CsvTrace<W: Write> {
 impl<W: Write> CsvTrace<W> {
     /// Starts a trace of `plan`, writing the header.
     pub fn new(mut out: W, plan: &BodyPlan) -> io::Result<Self> {
-        let mut header = String::from("time,x,y,z,qw,qx,qy,qz,energy");
+        let mut header = String::from("time_s,x_forward_m,y_up_m,z_right_m,qw,qx,qy,qz,energy_J");
         for leg in &plan.legs {
             let side = if leg.side == Side::Right { "r" } else { "l" };
             for k in 0..leg.links.len() {
-                header.push_str(&format!(",{side}{}_q{k}", leg.index));
+                header.push_str(&format!(",{side}{}_q{k}_rad", leg.index));
             }
         }
         for leg in &plan.legs {
             let side = if leg.side == Side::Right { "r" } else { "l" };
             for k in 0..leg.links.len() {
-                header.push_str(&format!(",{side}{}_tau{k}", leg.index));
+                header.push_str(&format!(",{side}{}_tau{k}_Nm", leg.index));
             }
         }
         for leg in &plan.legs {
             let side = if leg.side == Side::Right { "r" } else { "l" };
             for k in 0..leg.links.len() {
-                header.push_str(&format!(",{side}{}_target{k}", leg.index));
+                header.push_str(&format!(",{side}{}_target{k}_rad", leg.index));
             }
         }
         writeln!(out, "{header}")?;

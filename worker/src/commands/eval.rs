@@ -31,7 +31,8 @@ pub struct EvalArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     json: bool,
-    /// Write a CSV trace (body pose, joint angles and torques per control step).
+    /// Write a CSV trace (body pose, joint angles, torques and targets per control step;
+    /// each column name ends in its unit; the world is y-up, x forward, z to the right).
     #[arg(long)]
     trace: Option<PathBuf>,
     /// Write a drawing of the design (side, front and top views of its start pose, to
