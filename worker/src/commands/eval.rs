@@ -125,13 +125,13 @@ fn outcome_summary(o: &Outcome) -> String {
 }
 
 fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
-    outln!("outcome          {}", o.kind());
+    outln!("outcome            {}", o.kind());
     if let Some(s) = o.stats() {
-        outln!("distance         {:.3} m", s.distance);
-        outln!("speed            {:.3} m/s", s.speed);
-        outln!("energy           {:.1} J", s.energy);
-        outln!("cost of transport {:.4}", s.cost_of_transport);
-        outln!("mass             {:.2} kg", s.mass);
+        outln!("distance           {:.3} m", s.distance);
+        outln!("speed              {:.3} m/s", s.speed);
+        outln!("energy             {:.1} J", s.energy);
+        outln!("cost of transport  {:.4}", s.cost_of_transport);
+        outln!("mass with payload  {:.2} kg", s.mass);
     }
     match o {
         Outcome::Valid {
@@ -140,24 +140,24 @@ fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
             cell,
             ..
         } => {
-            outln!("fitness          {fitness:.4}");
-            outln!("features         {:?}", features.0);
-            outln!("cell             {}", cell.0);
+            outln!("fitness            {fitness:.4}");
+            outln!("features           {:?}", features.0);
+            outln!("cell               {}", cell.0);
         }
         Outcome::Rejected { violations, .. } => {
             for v in violations {
-                outln!("rejected         {v}");
+                outln!("rejected           {v}");
             }
         }
         Outcome::Invalid {
             reason, at_time, ..
         } => {
-            outln!("invalid          {reason} at t = {at_time:.3} s");
+            outln!("invalid            {reason} at t = {at_time:.3} s");
         }
     }
     let c = o.controller();
     outln!(
-        "controller       {}",
+        "controller         {}",
         serde_json::to_string(c).expect("controller serialises")
     );
     Ok(())

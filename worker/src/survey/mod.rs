@@ -290,8 +290,15 @@ impl fmt::Display for Survey {
                     .map(|(n, t)| (["n=2", "n=3", "n=4", "n=5", "n=6"][n - 2], t)),
             )
             .collect();
+        // The label column holds the longest label (verdicts are indented by two).
+        let width = Verdict::all()
+            .into_iter()
+            .map(|v| v.label().chars().count() + 2)
+            .chain(Cause::ALL.iter().map(|c| c.label().chars().count() + 2))
+            .fold(52, usize::max)
+            + 1;
         let row = |f: &mut fmt::Formatter<'_>, label: &str, cell: &dyn Fn(&Tally) -> String| {
-            write!(f, "{label:<52}")?;
+            write!(f, "{label:<width$}")?;
             for (_, t) in &groups {
                 write!(f, "{:>9}", cell(t))?;
             }
@@ -303,7 +310,7 @@ impl fmt::Display for Survey {
             self.scheme.name(),
             self.seed
         )?;
-        write!(f, "{:<52}", "")?;
+        write!(f, "{:<width$}", "")?;
         for (name, _) in &groups {
             write!(f, "{name:>9}")?;
         }
@@ -342,16 +349,25 @@ impl fmt::Display for Survey {
             f,
             "does each cause predict its failure? (designs with / without it; falls among designs\n  whose gait sweeps nothing together, backward among those upright to the end)"
         )?;
+        // A share of no designs is "-", not NaN.
+        let share = |p: f64, n: usize| {
+            if n == 0 || !p.is_finite() {
+                format!("{:>7}", "-")
+            } else {
+                format!("{:>5.1} %", 100.0 * p)
+            }
+        };
         for (c, with, p_with, without, p_without) in &self.cause_checks {
             writeln!(
                 f,
-                "  {:<50}{:>6} designs: {:>5.1} % {}; {:>6} without: {:>5.1} %",
+                "  {:<w$}{:>6} designs: {} {}; {:>6} without: {}",
                 c.label(),
                 with,
-                100.0 * p_with,
+                share(*p_with, *with),
                 c.failure_label(),
                 without,
-                100.0 * p_without
+                share(*p_without, *without),
+                w = width - 2
             )?;
         }
         let r = |(r, n): (Option<f64>, usize)| match r {
