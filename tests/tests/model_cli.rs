@@ -263,6 +263,12 @@ fn a_count_of_zero_threads_or_workers_says_it_must_be_at_least_one() {
     // clap's own parser said "number would be zero for non-zero type".
     for (binary, args) in [
         ("strider-coordinator", &["run", "--workers", "0"][..]),
+        // --threads, as the worker's, is the name; --workers stays as an alias.
+        ("strider-coordinator", &["run", "--threads", "0"][..]),
+        (
+            "strider-coordinator",
+            &["report", "--db", "x.db", "--out", "r", "--threads", "0"],
+        ),
         (
             "strider-coordinator",
             &["verify", "--db", "x.db", "--workers", "0"],

@@ -31,7 +31,7 @@ pub struct ReportArgs {
     #[arg(long, default_value_t = 10)]
     replays: usize,
     /// Threads to replay trials on (all cores by default).
-    #[arg(long)]
+    #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<std::num::NonZeroUsize>,
 }
 

@@ -13,9 +13,10 @@ pub struct RunArgs {
     /// Database file.
     #[arg(long, default_value = "strider.db")]
     db: PathBuf,
-    /// Evaluation threads (all cores by default).
-    #[arg(long, value_parser = strider_process::at_least_one)]
-    workers: Option<NonZeroUsize>,
+    /// Simulation threads (all cores by default), as a worker's --threads; --workers is
+    /// the older name.
+    #[arg(long, visible_alias = "workers", value_parser = strider_process::at_least_one)]
+    threads: Option<NonZeroUsize>,
     /// Seconds between progress lines.
     #[arg(long, default_value_t = 10.0)]
     progress_every: f64,
@@ -42,7 +43,7 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
         let path = &args.db;
         let (db, experiment) =
             super::open::open_or_create(args.experiment.as_deref(), path, true).await?;
-        let threads = args.workers.unwrap_or_else(default_threads);
+        let threads = args.threads.unwrap_or_else(default_threads);
         let (signal_tx, signal_rx) = tokio::sync::oneshot::channel();
         let stop = async move {
             let signal = stop_signal().await;

@@ -23,9 +23,9 @@ pub struct VerifyArgs {
     /// Candidates to simulate again, spread evenly over the stored ones (0: none).
     #[arg(long, default_value_t = 20)]
     sample: usize,
-    /// Threads for the simulations (default: every core).
-    #[arg(long, value_parser = strider_process::at_least_one)]
-    workers: Option<NonZeroUsize>,
+    /// Threads for the simulations (default: every core); --workers is the older name.
+    #[arg(long, visible_alias = "workers", value_parser = strider_process::at_least_one)]
+    threads: Option<NonZeroUsize>,
 }
 
 /// Replays, checks every row, simulates the sample again; says whether all agree.
@@ -144,7 +144,7 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
             .into_iter()
             .filter_map(|c| spec_of.get(&c.run).map(|spec| (c, *spec)))
             .collect();
-        let Some(outcomes) = simulate_again(&experiment, &chosen, args.workers).await? else {
+        let Some(outcomes) = simulate_again(&experiment, &chosen, args.threads).await? else {
             eprintln!(
                 "warning: {} stored candidates not simulated again: this strider-coordinator was built without the simulator (cargo feature `simulator`); run verify where a worker is built, or pass --sample 0",
                 chosen.len()
