@@ -65,12 +65,18 @@ const QUIET: [&str; 4] = ["h2", "hyper", "hyper_util", "tower"];
 /// colour only on a terminal and without `NO_COLOR` (no-color.org). A filter that does
 /// not parse is an error naming the variable, not silently `info`.
 pub fn init_logs() -> Result<(), String> {
+    init_logs_at("info")
+}
+
+/// As [`init_logs`], with `default` where neither variable is set (a local `run` shows
+/// its progress line and warnings, not the service's comings and goings).
+pub fn init_logs_at(default: &str) -> Result<(), String> {
     // An empty variable is an unset one.
     let set = |name: &str| std::env::var(name).ok().filter(|v| !v.trim().is_empty());
     let (var, text) = match (set("STRIDER_LOG"), set("RUST_LOG")) {
         (Some(s), _) => ("STRIDER_LOG", s),
         (None, Some(r)) => ("RUST_LOG", r),
-        _ => ("", "info".to_string()),
+        _ => ("", default.to_string()),
     };
     let mut directives = text.clone();
     let verbose = text.contains("debug") || text.contains("trace");

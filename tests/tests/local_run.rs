@@ -500,6 +500,14 @@ fn ctrl_c_and_sigterm_stop_run_honestly_and_the_next_run_finishes_the_same_libra
         // Not "finished", and not 0: a script can tell a stopped run from a done one.
         assert_eq!(got.code(), Some(status), "{}", p.log());
         assert!(p.log().contains("stopped before the end"), "{}", p.log());
+        // The stop is said at once, and the embedded service's INFO lines stay out of a
+        // local run's account (STRIDER_LOG=info brings them back).
+        assert!(
+            p.log().contains("stopping: the trials in flight"),
+            "{}",
+            p.log()
+        );
+        assert!(!p.log().contains(" INFO "), "{}", p.log());
         assert!(
             !p.log().contains("finished: `strider-coordinator export"),
             "{}",

@@ -98,6 +98,12 @@ fn init_logs() -> anyhow::Result<()> {
     strider_process::init_logs().map_err(|e| UsageError(e).into())
 }
 
+/// Logs for a command whose own lines say what happens: warnings and errors unless
+/// STRIDER_LOG or RUST_LOG asks for more.
+fn init_quiet_logs() -> anyhow::Result<()> {
+    strider_process::init_logs_at("warn").map_err(|e| UsageError(e).into())
+}
+
 /// A positive number of seconds given as `--name`.
 fn seconds(name: &str, s: f64) -> anyhow::Result<Duration> {
     if !(s.is_finite() && s > 0.0) {

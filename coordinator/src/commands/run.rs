@@ -30,7 +30,9 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
     use anyhow::Context;
     use strider_process::{default_threads, stop_signal};
 
-    super::init_logs()?;
+    // The progress line is this command's account; the embedded service's INFO lines
+    // (a worker connected, serving on a port) only interest someone debugging it.
+    super::init_quiet_logs()?;
     let every = super::seconds("progress-every", args.progress_every)?;
     // One thread: here the async work is moving a few messages per trial between threads
     // that simulate on every core, and each extra thread woken per message preempts a
@@ -47,7 +49,10 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
         let (signal_tx, signal_rx) = tokio::sync::oneshot::channel();
         let stop = async move {
             let signal = stop_signal().await;
-            tracing::info!("asked to stop: committing and shutting down");
+            // Said at once: the trials in flight get a few seconds to finish and be kept.
+            strider_process::note!(
+                "stopping: the trials in flight get up to 5 s to finish and be committed; any cut short are simulated again when the run goes on"
+            );
             let _ = signal_tx.send(signal);
         };
         match run_local(db, experiment.clone(), threads, every, stop).await? {
