@@ -21,6 +21,15 @@ pub const FEATURE_NAMES: [&str; FEATURE_COUNT] = [
 /// Feature units, d1 first ("" for a count or a multiplier).
 pub const FEATURE_UNITS: [&str; FEATURE_COUNT] = ["m", "kg", "", "m", "", ""];
 
+/// The whole values feature `i` can take, where it takes only whole values (d3, legs per
+/// side: an integer parameter), else None. Bins of such a feature are named by the values
+/// they hold ("3"), not by their edges ("2.80–3.60").
+pub fn whole_values(i: usize) -> Option<std::ops::RangeInclusive<i64>> {
+    let spec = M::LegsPerSide.spec();
+    (FEATURE_NAMES[i] == spec.name && spec.kind == crate::params::ParamKind::Integer)
+        .then(|| spec.min.ceil() as i64..=spec.max.floor() as i64)
+}
+
 /// Feature values d1..d6 of one design.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Features(pub [f64; FEATURE_COUNT]);

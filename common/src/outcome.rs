@@ -256,6 +256,32 @@ impl Shortfall {
         }
     }
 
+    /// Its label in words (report legends).
+    pub fn label(self) -> &'static str {
+        match self {
+            Shortfall::StepSensitive => "step-sensitive",
+            Shortfall::Speed => "too slow",
+            Shortfall::Backward => "backward",
+            Shortfall::Skating => "skating",
+            Shortfall::Fell => "fell",
+            Shortfall::SelfContact => "self-contact",
+            Shortfall::Unstable => "unstable",
+        }
+    }
+
+    /// What it means, in a sentence a designer reads (the report defines each word).
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Shortfall::StepSensitive => "met the brief at the run's physics step but not at the finer step that confirms every feasible design",
+            Shortfall::Speed => "walked the whole trial upright and forward, slower than the brief's minimum speed",
+            Shortfall::Backward => "stayed upright to the end but did not move forward",
+            Shortfall::Skating => "stayed upright to the end, its feet sliding along the ground instead of stepping (slip and low forward travel past the [trial] limits)",
+            Shortfall::Fell => "tilted over, sank too low or dragged a part other than a foot on the ground",
+            Shortfall::SelfContact => "two of its own parts not joined by a hinge touched",
+            Shortfall::Unstable => "the simulation diverged (a speed past the blow-up limit, or a value that is not a number): the design's figures cannot be trusted, whatever it would do",
+        }
+    }
+
     /// The shortfall called `name`.
     pub fn named(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|s| s.name() == name)

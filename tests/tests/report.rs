@@ -199,6 +199,14 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     assert!(map.contains("d2 total_mass (kg, with payload)"), "{map}");
     assert!(map.contains("linear"), "{map}");
     assert!(html.contains("The red ring marks MAX"));
+    // Every word for what a near miss misses is defined on the page.
+    for sh in strider_common::Shortfall::ALL {
+        assert!(
+            html.contains(&format!("<dt>{}</dt><dd>", sh.label())),
+            "{} is not defined",
+            sh.label()
+        );
+    }
     look_at_it_in_chromium(&pages, &dir);
     click_through_the_workbench(&pages, &db, &dir);
     std::fs::remove_dir_all(&dir).unwrap();

@@ -121,9 +121,9 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
                 e.brief.min_speed
             ),
             strider_common::Standing::EndedEarly { at_time } => {
-                format!("{} at t = {at_time:.2} s", shortfall.name())
+                format!("{} at t = {at_time:.2} s", shortfall.label())
             }
-            _ => shortfall.name().to_string(),
+            _ => shortfall.label().to_string(),
         });
         designs.push(design_json(
             e, library, cell, genome, fitness, misses, trial, &files,

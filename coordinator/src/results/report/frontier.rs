@@ -2,6 +2,7 @@
 //! chosen run's frontier maps, and the infeasible designs nearest the brief.
 
 use super::maps::{frontier_marginals_svg, frontier_svg};
+use super::svg::escape;
 use super::table::{add_table, count, num, text, Cell};
 use super::{push_picture, Inputs, Page, Picture, RunData, SECTIONS};
 use crate::results::analysis::summary::Summary;
@@ -27,7 +28,17 @@ pub(super) fn frontier(
     } = out;
     let _ = writeln!(page, "<h2>{}</h2>", SECTIONS[4]);
     let e = inp.experiment;
-    page.push_str("<p>Cells holding a design that meets the whole brief (feasible), cells holding only designs that miss it (from the infeasible library, kept by feasible-infeasible search), and, for those, the constraint that binds: too slow, backward, fell, self-contact or unstable (mean over repeats).</p>\n");
+    page.push_str("<p>Cells holding a design that meets the whole brief (feasible), cells holding only designs that miss it (from the infeasible library, kept by feasible-infeasible search), and, for those, the constraint that binds (mean over repeats).</p>\n");
+    page.push_str("<dl class=\"shortfalls\">\n");
+    for sh in strider_common::Shortfall::ALL {
+        let _ = writeln!(
+            page,
+            "<dt>{}</dt><dd>{}</dd>",
+            sh.label(),
+            escape(sh.meaning())
+        );
+    }
+    page.push_str("</dl>\n");
     let mut header: Vec<String> = ["scheme", "feasible cells", "infeasible-only cells"]
         .map(String::from)
         .to_vec();

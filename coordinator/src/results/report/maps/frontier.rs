@@ -34,20 +34,9 @@ fn frontier_colour(
 
 fn frontier_legend(s: &mut String, x: f64, y: f64) {
     let items = std::iter::once(("meets the brief", FEASIBLE_COLOUR)).chain(
-        Shortfall::ALL.iter().map(|&sh| {
-            (
-                match sh {
-                    Shortfall::StepSensitive => "step-sensitive",
-                    Shortfall::Speed => "too slow",
-                    Shortfall::Backward => "backward",
-                    Shortfall::Skating => "skating",
-                    Shortfall::Fell => "fell",
-                    Shortfall::SelfContact => "self-contact",
-                    Shortfall::Unstable => "unstable",
-                },
-                shortfall_colour(sh),
-            )
-        }),
+        Shortfall::ALL
+            .iter()
+            .map(|&sh| (sh.label(), shortfall_colour(sh))),
     );
     for (k, (label, fill)) in items.enumerate() {
         let x = x + k as f64 * 110.0;
@@ -119,7 +108,7 @@ pub fn frontier_marginals_svg(
     });
     frontier_legend(&mut s, 50.0, height);
     document(
-        50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
+        70.0 + 5.0 * (f64::from(grid.bins) * super::PAIR_CELL + super::PAIR_GAP),
         height + 30.0,
         &s,
     )

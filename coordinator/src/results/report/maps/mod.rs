@@ -80,6 +80,17 @@ const TOP: f64 = 50.0;
 /// go to them (the first bin of total_mass holds designs under 50 kg too: "< 55 kg").
 fn bin_label(grid: &FeatureGrid, feature: usize, bin: u32) -> String {
     let r = grid.ranges()[feature];
+    if let Some(values) = strider_common::features::whole_values(feature) {
+        // The whole values the bin holds: "3", "5–6", or "none" for a bin between two.
+        let held: Vec<i64> = values
+            .filter(|&v| grid.bin(r, v as f64) == Some(bin))
+            .collect();
+        return match (held.first(), held.last()) {
+            (Some(a), Some(b)) if a == b => format!("{a}"),
+            (Some(a), Some(b)) => format!("{a}–{b}"),
+            _ => "none".into(),
+        };
+    }
     let w = (r.max - r.min) / f64::from(grid.bins);
     let lo = r.min + w * f64::from(bin);
     let unit = match FEATURE_UNITS[feature] {
@@ -430,11 +441,18 @@ pub fn marginals_svg(grid: &FeatureGrid, library: &Library, scale: Scale, title:
     );
     // Room for the colour bar's note (42 px below its top, 10 px type).
     document(
-        50.0 + 5.0 * (f64::from(grid.bins) * 18.0 + 70.0),
+        70.0 + 5.0 * (f64::from(grid.bins) * PAIR_CELL + PAIR_GAP),
         height + 52.0,
         &s,
     )
 }
+
+/// A pair map's block, px.
+const PAIR_CELL: f64 = 24.0;
+/// Room between pair maps for their bin and axis labels, px.
+const PAIR_GAP: f64 = 120.0;
+/// The first row of pair maps starts this far down, below the title, px.
+const PAIR_TOP: f64 = 70.0;
 
 /// Draws the fifteen pair maps into `s`, each bin pair filled by `fill(i, j)[bin_i][bin_j]`
 /// (grey when None), with the cell a click there opens if any; returns the height used, px.
@@ -445,16 +463,16 @@ fn pair_maps(
     fill: impl Fn(usize, usize) -> Vec<Vec<Option<(String, Option<CellIndex>)>>>,
 ) -> f64 {
     let b = f64::from(grid.bins);
-    let cell = 18.0;
+    let cell = PAIR_CELL;
     let map = b * cell;
-    let (gap_x, gap_y) = (map + 70.0, map + 70.0);
+    let (gap_x, gap_y) = (map + PAIR_GAP, map + PAIR_GAP);
     let cols = 5;
     text(s, 20.0, 22.0, 14.0, "start", title);
     let pairs = (0..FEATURE_COUNT).flat_map(|i| (i + 1..FEATURE_COUNT).map(move |j| (i, j)));
     for (k, (i, j)) in pairs.enumerate() {
         let (ox, oy) = (
-            50.0 + (k % cols) as f64 * gap_x,
-            50.0 + (k / cols) as f64 * gap_y,
+            70.0 + (k % cols) as f64 * gap_x,
+            PAIR_TOP + (k / cols) as f64 * gap_y,
         );
         for (bi, row) in fill(i, j).iter().enumerate() {
             for (bj, v) in row.iter().enumerate() {
@@ -462,12 +480,18 @@ fn pair_maps(
                     Some((_, Some(c))) => format!(r#" data-cell="{}""#, c.0),
                     _ => String::new(),
                 };
+                // Hovered, a block says which bins it is (the page's script adds the
+                // design's figures).
                 let _ = writeln!(
                     s,
-                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{}" stroke="#fff" stroke-width="0.5"{data}/>"##,
+                    r##"<rect x="{:.1}" y="{:.1}" width="{cell}" height="{cell}" fill="{}" stroke="#fff" stroke-width="0.5"{data}><title>d{} {}, d{} {}</title></rect>"##,
                     ox + bi as f64 * cell,
                     oy + map - (bj as f64 + 1.0) * cell,
-                    v.as_ref().map_or(EMPTY, |(c, _)| c.as_str())
+                    v.as_ref().map_or(EMPTY, |(c, _)| c.as_str()),
+                    i + 1,
+                    escape(&bin_label(grid, i, bi as u32)),
+                    j + 1,
+                    escape(&bin_label(grid, j, bj as u32)),
                 );
             }
         }
@@ -475,23 +499,36 @@ fn pair_maps(
             s,
             r##"<rect x="{ox:.1}" y="{oy:.1}" width="{map}" height="{map}" fill="none" stroke="#333"/>"##
         );
+        // The first and last bins named at the axes' ends, the title between.
+        let last = grid.bins - 1;
+        text(s, ox, oy + map + 11.0, 8.0, "start", &bin_label(grid, i, 0));
+        text(
+            s,
+            ox + map,
+            oy + map + 11.0,
+            8.0,
+            "end",
+            &bin_label(grid, i, last),
+        );
         text(
             s,
             ox + map / 2.0,
-            oy + map + 14.0,
+            oy + map + 24.0,
             10.0,
             "middle",
             &format!("{} →", axis_title(i)),
         );
+        text(s, ox - 3.0, oy + map, 8.0, "end", &bin_label(grid, j, 0));
+        text(s, ox - 3.0, oy + 8.0, 8.0, "end", &bin_label(grid, j, last));
         vertical_text(
             s,
-            ox - 8.0,
+            ox - 52.0,
             oy + map / 2.0,
-            10.0,
+            9.0,
             &format!("{} →", axis_title(j)),
         );
     }
-    50.0 + 3.0 * gap_y + 10.0
+    PAIR_TOP + 3.0 * gap_y + 10.0
 }
 
 #[cfg(test)]
@@ -508,7 +545,9 @@ mod tests {
             ["< 55 kg", "55–60 kg", "60–65 kg", "65–70 kg", "≥ 70 kg"]
         );
         assert_eq!(bin_label(&grid, 0, 1), "2.16–2.32 m");
-        assert_eq!(bin_label(&grid, 2, 4), "≥ 5.20");
+        // Legs per side is a whole number: its bins are named by the counts they hold.
+        let legs: Vec<String> = (0..5).map(|b| bin_label(&grid, 2, b)).collect();
+        assert_eq!(legs, ["2", "3", "4", "5", "6"]);
         assert_eq!(axis_title(1), "d2 total_mass (kg, with payload)");
         assert_eq!(axis_title(4), "d5 length_mult");
     }
