@@ -363,8 +363,16 @@ fn stored_elite(db: &std::path::Path, run: u64, cell: u64) -> (f64, f64, f64, f6
     let outcome: serde_json::Value = serde_json::from_str(outcome).unwrap();
     let stats = &outcome["stats"];
     let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    // The cells row and the candidate's outcome agree; the outcome's JSON keeps every bit
+    // (the sqlite3 shell prints 15 digits).
+    let exact = f(&outcome["fitness"]);
+    let shown: f64 = fitness.parse().unwrap();
+    assert!(
+        (shown - exact).abs() <= 1e-12 * exact.abs(),
+        "{shown} vs {exact}"
+    );
     (
-        fitness.parse().unwrap(),
+        exact,
         f(&stats["speed"]),
         f(&stats["cost_of_transport"]),
         f(&stats["mass"]),
@@ -457,6 +465,27 @@ fn check_card(
         std::fs::read(&pose).unwrap(),
         "start pose"
     );
+    // The replay command a card gives (the genome file with the experiment the report
+    // writes beside it) reproduces the stored trial to the bit.
+    let a = browser.find("#card a[data-download=genome]");
+    let href = browser.attribute(&a, "href").unwrap();
+    let replayed: serde_json::Value = serde_json::from_slice(
+        &run_ok(
+            "strider-worker",
+            &[
+                "eval",
+                pages.join(&href).to_str().unwrap(),
+                "--scheme",
+                "genome",
+                "--experiment",
+                pages.join("designs/experiment.toml").to_str().unwrap(),
+                "--json",
+            ],
+        )
+        .stdout,
+    )
+    .unwrap();
+    assert_eq!(replayed["fitness"].as_f64(), Some(fitness), "{replayed}");
 }
 
 /// The workbench as a designer uses it, in a real Chromium driven by chromedriver: a click

@@ -110,6 +110,14 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
     for f in &report.files {
         files.add(out.join(&f.path), f.bytes.as_slice());
     }
+    // The experiment beside the designs, so that any card's replay command runs as is.
+    let experiment_file = crate::db::canonical_toml(&experiment);
+    if !report.files.is_empty() {
+        files.add(
+            out.join(designs::FOLDER).join("experiment.toml"),
+            experiment_file.as_bytes(),
+        );
+    }
     if let Err(e) = files.commit() {
         if made {
             let _ = std::fs::remove_dir(out);

@@ -76,9 +76,8 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
     let replay_note = match &trials.missing {
         Some(why) => why.clone(),
         None => format!(
-            "The {n} fittest feasible designs and the {n} nearest near misses have an animated replay of their trial; for any other, <code>strider-coordinator export --db FILE --elite {run}:CELL --genome g.json</code> then <code>strider-worker eval g.json --replay replay.svg</code> (with <code>--experiment</code>, the experiment file) makes one.",
-            n = trials.replays,
-            run = run.id
+            "The {n} fittest feasible designs and the {n} nearest near misses have an animated replay of their trial; for any other, its card gives the command that makes one (<code>strider-worker eval</code> on its genome file with <code>designs/experiment.toml</code>, the experiment as the database holds it).",
+            n = trials.replays
         ),
     };
     let _ = writeln!(

@@ -196,7 +196,9 @@
       h("a", { href: f.pose, download: "", "data-download": "pose" }, "start pose"));
     const pictures = h("div", { class: "pictures" }, h("img", { src: f.drawing, alt: "side, front and top views" }));
     if (f.replay) pictures.append(h("img", { src: f.replay, alt: "animated replay of the trial" }));
-    else pictures.append(h("p", {}, "No animated replay for this design in the report: export its genome and run strider-worker eval with --replay."));
+    else pictures.append(h("p", {}, "No animated replay of this design in the report (report --replays N makes them for the N fittest). From the report's folder, ",
+      h("code", {}, "strider-worker eval " + f.genome + " --scheme genome --experiment designs/experiment.toml --replay replay.svg"),
+      " replays its trial exactly."));
     card.replaceChildren(
       h("button", { class: "close", title: "close" }, "×"),
       h("h3", { "data-key": d.key }, "Run " + data.run + ", cell " + d.cell + (d.feasible ? "" : " (near miss)")),
