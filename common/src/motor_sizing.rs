@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 /// One joint's load over a trial, against its motor's limits.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct JointLoad {
-    /// Which joint: "right leg 0 motor 1" (motor 0 at the hip, 2 at the foot end).
+    /// Which joint: "right leg 0 motor 1 (leg0_upper_joint)": motor 0 at the hip, 2 at
+    /// the foot end, and in brackets the joint's name in the exported URDF.
     pub joint: String,
     /// Largest |torque| applied, Nm.
     pub peak_torque: f64,
@@ -66,14 +67,18 @@ impl MotorSizing {
     /// Each joint's load, in the plan's joint order (empty before the first step).
     pub fn loads(&self, plan: &BodyPlan) -> Vec<JointLoad> {
         let steps = self.steps.max(1) as f64;
-        let joints = plan.legs.iter().flat_map(|leg| {
+        let joints = plan.legs.iter().enumerate().flat_map(|(l, leg)| {
             leg.links.iter().enumerate().map(move |(k, link)| {
                 let side = if leg.side == Side::Right {
                     "right"
                 } else {
                     "left"
                 };
-                (format!("{side} leg {} motor {k}", leg.index), link.drive)
+                let urdf = crate::urdf::joint_name(l, k);
+                (
+                    format!("{side} leg {} motor {k} ({urdf})", leg.index),
+                    link.drive,
+                )
             })
         });
         joints
@@ -118,7 +123,11 @@ mod tests {
         assert_eq!(l.peak_power, 6.0);
         assert!((l.rms_power - (26.0f64).sqrt()).abs() < 1e-12);
         assert_eq!(l.torque_limit, plan.legs[0].links[0].drive.max_torque);
-        assert!(l.joint.ends_with("leg 0 motor 0"), "{}", l.joint);
+        assert!(
+            l.joint.ends_with("leg 0 motor 0 (leg0_hip_joint)"),
+            "{}",
+            l.joint
+        );
         assert_eq!(loads[1].peak_torque, 0.0);
     }
 }

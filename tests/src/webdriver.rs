@@ -80,6 +80,7 @@ impl Browser {
             "/session",
             Some(json!({"capabilities": {"alwaysMatch": {
                 "browserName": "chrome",
+                "goog:loggingPrefs": {"browser": "ALL"},
                 "goog:chromeOptions": {"binary": chromium_path, "args": args},
             }}})),
         );
@@ -150,6 +151,17 @@ impl Browser {
             "/execute/sync",
             Some(json!({"script": script, "args": []})),
         )
+    }
+
+    /// The page's console errors since the last call (uncaught exceptions, failed loads).
+    pub fn console_errors(&self) -> Vec<String> {
+        let v = self.session_call("POST", "/se/log", Some(json!({"type": "browser"})));
+        v.as_array()
+            .into_iter()
+            .flatten()
+            .filter(|e| e["level"] == "SEVERE")
+            .map(|e| e["message"].as_str().unwrap_or_default().to_string())
+            .collect()
     }
 
     fn session_call(&self, method: &str, path: &str, body: Option<Value>) -> Value {

@@ -506,7 +506,13 @@ fn click_through_the_workbench(
         strider_tests::skip_without("chromedriver (Debian's chromium-driver package)");
         return;
     };
-    browser.goto(&format!("file://{}", pages.join("report.html").display()));
+    let page = format!("file://{}", pages.join("report.html").display());
+    browser.goto(&page);
+    assert_eq!(
+        browser.console_errors(),
+        Vec::<String>::new(),
+        "the page's script failed"
+    );
     let run = browser
         .script("return JSON.parse(document.getElementById('design-data').textContent).run;")
         .as_u64()
@@ -572,6 +578,19 @@ fn click_through_the_workbench(
     check_card(&browser, pages, db, dir, run, cell);
     browser.click(&browser.find("#card .close"));
 
+    // A link to a design opens its card.
+    browser.goto(&format!("{page}#design={key}"));
+    let title = browser.find("#card h3");
+    assert!(
+        browser.displayed(&browser.find("#card")),
+        "#design={key} opened no card"
+    );
+    assert_eq!(
+        browser.attribute(&title, "data-key").as_deref(),
+        Some(key.as_str())
+    );
+    browser.click(&browser.find("#card .close"));
+
     // The toggle: the near misses, each with what it misses.
     browser.click(&browser.find("input[name=library][value=infeasible]"));
     let near = browser.find_all("#designs tbody tr");
@@ -590,4 +609,9 @@ fn click_through_the_workbench(
     for r in &near {
         assert!(browser.attribute(r, "data-key").unwrap().starts_with('i'));
     }
+    assert_eq!(
+        browser.console_errors(),
+        Vec::<String>::new(),
+        "the page's script failed"
+    );
 }

@@ -87,7 +87,7 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
 <p class="library-toggle">Designs from: <label><input type="radio" name="library" value="feasible" checked> the feasible library ({feasible})</label> <label><input type="radio" name="library" value="infeasible"> the infeasible library: near misses ({infeasible})</label></p>
 <p class="filters">Legs per side <select id="filter-legs"><option value="">any</option></select> · mass with payload at most <input id="filter-mass" type="number" step="1" size="5"> kg · <span id="shown"></span></p>
 <div id="scatter"></div>
-<table id="designs"><thead></thead><tbody></tbody></table>
+<div class="table-box"><table id="designs"><thead></thead><tbody></tbody></table></div>
 </div>
 <div id="tooltip" hidden></div>
 <aside id="card" hidden></aside>"#,
@@ -114,16 +114,9 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
     for (library, cell, genome, fitness, missed) in feasible.chain(infeasible) {
         let trial = trials.designs.get(&(library, cell));
         let files = design_files(e, run, library, cell, genome, trial);
-        let misses = missed.map(|(shortfall, standing)| match standing {
-            strider_common::Standing::TooSlow { speed } => format!(
-                "too slow: {speed:.3} m/s against the brief's {:.3} m/s",
-                e.brief.min_speed
-            ),
-            strider_common::Standing::EndedEarly { at_time } => {
-                format!("{} at t = {at_time:.2} s", shortfall.label())
-            }
-            _ => shortfall.label().to_string(),
-        });
+        let outcome = trial.and_then(|t| t.outcome.as_ref());
+        let misses =
+            missed.map(|(shortfall, standing)| what_it_misses(e, shortfall, standing, outcome));
         designs.push(design_json(
             e, library, cell, genome, fitness, misses, trial, &files,
         ));
@@ -133,6 +126,12 @@ pub(super) fn workbench(out: &mut Page, inp: &Inputs<'_>, chosen: Option<&RunDat
         "run": run.id.0,
         "payload": e.brief.payload,
         "min_speed": e.brief.min_speed,
+        "brief": format!(
+            "at most {} kg without the {} kg payload, at least {} m tall at the start pose, at least {} m/s over the trial (the search asks {:.3} m/s: a {} % margin for the physics step)",
+            e.brief.max_mass, e.brief.payload, e.brief.min_height, e.brief.min_speed,
+            e.brief.required_speed(e.trial.speed_margin), 100.0 * e.trial.speed_margin
+        ),
+        "whole": (0..FEATURE_NAMES.len()).map(|i| strider_common::features::whole_values(i).is_some()).collect::<Vec<_>>(),
         "stays_up_seconds": e.trial.upright_after_feasible_seconds,
         "feature_names": FEATURE_NAMES,
         "feature_units": FEATURE_UNITS,
@@ -266,6 +265,36 @@ fn design_json(
             "replay": file(".replay.svg"),
         },
     })
+}
+
+/// What a near miss misses the brief by, in words: the speed it made against the speed
+/// the search asks (the brief's with its margin), or why and when its trial ended.
+fn what_it_misses(
+    e: &Experiment,
+    shortfall: strider_common::Shortfall,
+    standing: strider_common::Standing,
+    outcome: Option<&Outcome>,
+) -> String {
+    use strider_common::{Shortfall, Standing};
+    match (shortfall, standing, outcome) {
+        (Shortfall::Backward, Standing::TooSlow { speed }, _) => {
+            format!("walked backward: {speed:.3} m/s")
+        }
+        (_, Standing::TooSlow { speed }, _) => format!(
+            "too slow: {speed:.3} m/s against the {:.3} m/s the search asks (the brief's {} m/s and its {} % margin)",
+            e.brief.required_speed(e.trial.speed_margin),
+            e.brief.min_speed,
+            100.0 * e.trial.speed_margin
+        ),
+        // The trial's own account says by how much (a fall's height against its limit).
+        (_, _, Some(Outcome::Invalid { reason, at_time, .. })) => {
+            format!("{reason} at t = {at_time:.2} s")
+        }
+        (_, Standing::EndedEarly { at_time }, _) => {
+            format!("{} at t = {at_time:.2} s", shortfall.label())
+        }
+        _ => shortfall.label().to_string(),
+    }
 }
 
 /// `v` rounded to 0.001.

@@ -131,10 +131,14 @@
       fill: "none", stroke: "#d62728", "stroke-width": 1.5, "pointer-events": "none",
     }));
     for (const d of points) {
-      svg.append(s("circle", {
+      const dot = s("circle", {
         cx: px(d.stats.cot).toFixed(1), cy: py(d.stats.speed).toFixed(1), r: onFront.has(d.key) ? 5 : 3.5,
         fill: onFront.has(d.key) ? "#d62728" : "#1f77b4", "fill-opacity": 0.75, "data-key": d.key,
-      }));
+      });
+      const tip = s("title");
+      tip.textContent = "cell " + d.cell + ": " + fixed(d.stats.speed, 3) + " m/s, cost of transport " + fixed(d.stats.cot, 3) + ", " + fixed(d.mass, 1) + " kg with payload";
+      dot.append(tip);
+      svg.append(dot);
     }
     const note = s("text", { x: W - R, y: T + 14, "font-size": 11, "text-anchor": "end", fill: "#d62728" });
     note.textContent = "red: the Pareto front (" + front.length + ")";
@@ -157,12 +161,13 @@
       ["height at the start pose (m)", fixed(d.height, 2), "height"],
       ["legs (per side)", d.legs + " (" + d.legs_per_side + ")", "legs"],
       ["stays up after the trial", d.feasible ? "checked for " + data.stays_up_seconds + " s" : ""],
-      ["peak torque / motor limit", fixed(st.peak_torque_ratio, 3), "peak_torque_ratio"],
+      ["largest torque on any joint, of its limit (100 % = held at the limit)", percent(st.peak_torque_ratio), "peak_torque_ratio"],
       ["foot slip on the ground (m, mean per foot)", fixed(st.foot_slip, 3), "foot_slip"],
-      ["forward foot travel near the ground", percent(st.low_forward_share), "low_forward_share"],
+      ["share of the feet's forward travel made within the ground clearance (skating)", percent(st.low_forward_share), "low_forward_share"],
       ["duty factor (share of time a foot is down)", percent(st.duty_factor), "duty_factor"],
     ];
-    return h("table", { class: "figures" }, ...rows.map(([k, v, f]) => h("tr", {}, h("th", {}, k), h("td", f ? { "data-field": f } : {}, v))));
+    const blank = d.stats ? "" : "— (no trial figures: it " + (d.misses || "ended early") + ")";
+    return h("table", { class: "figures" }, ...rows.map(([k, v, f]) => h("tr", {}, h("th", {}, k), h("td", f ? { "data-field": f } : {}, v === "" && f && f !== "fitness" ? blank : v))));
   }
 
   function featureTable(d) {
@@ -170,20 +175,21 @@
       h("tr", {}, h("th", {}, "feature"), h("th", {}, "value"), h("th", {}, "bin")),
       ...data.feature_names.map((name, i) => h("tr", {},
         h("td", {}, "d" + (i + 1) + " " + name + (data.feature_units[i] ? " (" + data.feature_units[i] + (name === "total_mass" ? ", with payload" : "") + ")" : "")),
-        h("td", {}, fixed(d.features[i], 3)),
+        h("td", {}, data.whole[i] ? String(Math.round(d.features[i])) : fixed(d.features[i], 3)),
         h("td", {}, String(d.bins[i])))));
   }
 
   function motorTable(d) {
     if (!d.motors) return h("p", {}, "No motor sizing: the report was made without replaying this design's trial.");
-    const head = ["joint", "peak torque Nm", "RMS torque Nm", "torque limit Nm", "peak / limit", "peak speed rad/s", "speed rating rad/s", "peak power W", "RMS power W"];
+    const head = ["joint", "peak torque Nm", "RMS torque Nm", "torque limit Nm", "peak / limit", "peak speed rad/s", "max_speed gene rad/s", "peak power W", "RMS power W"];
     return h("table", { class: "motors" },
       h("tr", {}, ...head.map((t) => h("th", {}, t))),
       ...d.motors.map((m) => h("tr", {},
         h("td", {}, m.joint), h("td", {}, fixed(m.peak_torque, 1)), h("td", {}, fixed(m.rms_torque, 1)),
         h("td", {}, fixed(m.torque_limit, 1)), h("td", {}, percent(m.torque_limit > 0 ? m.peak_torque / m.torque_limit : NaN)),
         h("td", {}, fixed(m.peak_speed, 2)), h("td", {}, fixed(m.speed_limit, 2)),
-        h("td", {}, fixed(m.peak_power, 1)), h("td", {}, fixed(m.rms_power, 1)))));
+        h("td", {}, fixed(m.peak_power, 1)), h("td", {}, fixed(m.rms_power, 1)))),
+      h("caption", {}, "Torque limits are the genome's motor*_max_torque times its strength multiplier; the simulation never passes them. The max_speed gene sets the gait's amplitude (the sweep a joint is asked for per cycle); it is not a speed limit the simulation holds, so a joint's peak speed may pass it: size a motor's speed from the peak speed column. Motor 0 is at the hip, 2 at the foot end; in brackets, the joint's name in the URDF."));
   }
 
   function openCard(d) {
@@ -191,23 +197,31 @@
     const card = document.getElementById("card");
     const f = d.files;
     const downloads = h("p", { class: "downloads" }, "Download: ",
-      h("a", { href: f.genome, download: "", "data-download": "genome" }, "genome file"), " · ",
-      h("a", { href: f.urdf, download: "", "data-download": "urdf" }, "URDF"), " + ",
-      h("a", { href: f.pose, download: "", "data-download": "pose" }, "start pose"));
+      h("a", { href: f.genome, download: "", target: "_blank", "data-download": "genome" }, "genome file"), " · ",
+      h("a", { href: f.urdf, download: "", target: "_blank", "data-download": "urdf" }, "URDF"), " + ",
+      h("a", { href: f.pose, download: "", target: "_blank", "data-download": "pose" }, "start pose"));
     const pictures = h("div", { class: "pictures" }, h("img", { src: f.drawing, alt: "side, front and top views" }));
     if (f.replay) pictures.append(h("img", { src: f.replay, alt: "animated replay of the trial" }));
-    else pictures.append(h("p", {}, "No animated replay of this design in the report (report --replays N makes them for the N fittest). From the report's folder, ",
+    else pictures.append(h("p", {}, "No animated replay of this design in the report (report --replays N makes them for the N fittest designs and the N nearest near misses). From the report's folder, ",
       h("code", {}, "strider-worker eval " + f.genome + " --scheme genome --experiment designs/experiment.toml --replay replay.svg"),
       " replays its trial exactly."));
     card.replaceChildren(
       h("button", { class: "close", title: "close" }, "×"),
       h("h3", { "data-key": d.key }, "Run " + data.run + ", cell " + d.cell + (d.feasible ? "" : " (near miss)")),
+      h("p", { class: "brief" }, "The brief: " + data.brief + "."),
       downloads, pictures, figures(d),
       h("h4", {}, "Motor sizing (over the trial, every physics step)"), motorTable(d),
       h("h4", {}, "Features"), featureTable(d),
       h("h4", {}, "Genome"), h("pre", {}, JSON.stringify(d.genome, null, 2)));
     card.hidden = false;
     card.scrollTop = 0;
+    // The address names the open card, to copy or bookmark.
+    history.replaceState(null, "", "#design=" + d.key);
+  }
+
+  function closeCard() {
+    document.getElementById("card").hidden = true;
+    history.replaceState(null, "", window.location.pathname + window.location.search);
   }
 
   function designAt(cell) {
@@ -216,14 +230,20 @@
     return byKey.get(mine) || byKey.get(other);
   }
 
+  // A pair map's block names its bins in a <title> (for the SVG file alone); on the page
+  // the tooltip says it, beside the design's figures.
+  for (const t of document.querySelectorAll("figure rect[data-cell] > title")) {
+    t.parentNode.dataset.bins = t.textContent;
+    t.remove();
+  }
   const tip = document.getElementById("tooltip");
   document.addEventListener("mouseover", (ev) => {
     const t = ev.target.closest && ev.target.closest("[data-cell]");
     const d = t && designAt(Number(t.dataset.cell));
     if (!d) { tip.hidden = true; return; }
     const st = d.stats || {};
-    tip.textContent = "cell " + d.cell + (d.feasible ? "" : " (near miss: " + (d.misses || "") + ")") +
-      " · fitness " + (fixed(d.fitness, 4) || "none") + " · " + fixed(st.speed, 2) + " m/s · COT " + fixed(st.cot, 3) +
+    tip.textContent = (t.dataset.bins ? t.dataset.bins + ": best " : "") + "cell " + d.cell + (d.feasible ? "" : " (near miss: " + (d.misses || "") + ")") +
+      " · fitness " + (fixed(d.fitness, 4) || "none") + (d.stats ? " · " + fixed(st.speed, 2) + " m/s · COT " + fixed(st.cot, 3) : "") +
       " · " + fixed(d.mass, 1) + " kg with payload · " + d.legs + " legs";
     tip.style.left = ev.pageX + 12 + "px";
     tip.style.top = ev.pageY + 12 + "px";
@@ -231,7 +251,7 @@
   });
   document.addEventListener("click", (ev) => {
     if (!ev.target.closest) return;
-    if (ev.target.closest("#card .close")) { document.getElementById("card").hidden = true; return; }
+    if (ev.target.closest("#card .close")) { closeCard(); return; }
     const sort = ev.target.closest("th[data-sort]");
     if (sort) {
       if (sortColumn === sort.dataset.sort) descending = !descending;
@@ -245,12 +265,13 @@
     if (c) openCard(designAt(Number(c.dataset.cell)));
   });
   document.addEventListener("keydown", (ev) => {
-    if (ev.key === "Escape") document.getElementById("card").hidden = true;
+    if (ev.key === "Escape") closeCard();
   });
   for (const radio of document.querySelectorAll("input[name=library]")) {
     radio.addEventListener("change", () => {
       library = radio.value;
       if (library === "infeasible" && sortColumn === "fitness") sortColumn = "speed";
+      if (library === "feasible" && sortColumn === "misses") { sortColumn = "fitness"; descending = true; }
       renderTable();
     });
   }
@@ -262,6 +283,10 @@
   document.getElementById("filter-mass").addEventListener("input", renderTable);
   renderTable();
   // A link to a design: report.html#design=f123 (feasible, cell 123) or #design=i123.
-  const linked = /^#design=([fi]\d+)$/.exec(window.location.hash);
-  if (linked) openCard(byKey.get(linked[1]));
+  const follow = () => {
+    const linked = /^#design=([fi]\d+)$/.exec(window.location.hash);
+    if (linked) openCard(byKey.get(linked[1]));
+  };
+  window.addEventListener("hashchange", follow);
+  follow();
 })();
