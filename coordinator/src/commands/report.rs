@@ -226,11 +226,15 @@ async fn replay(
     let ctx = EvalContext::of(experiment);
     let threads = threads.unwrap_or_else(strider_process::default_threads);
     let payload = experiment.brief.payload;
+    let trial_seconds = experiment.run.trial_seconds;
     let run_id = run.id;
     let measured = tokio::task::spawn_blocking(move || {
         strider_worker::batch::map_batch(&jobs, threads, |(library, cell, genome, animate)| {
             let m = strider_worker::replay::measure(&ctx, genome, animate.then_some(0.1));
-            let replay = m.frames.map(|frames| {
+            let replay = m.frames.map(|mut frames| {
+                // The trial and a second after it: the 15-s stay-up window after a
+                // feasible trial made the picture 4,000 px wide (26 m walked).
+                frames.retain(|f| f.time <= trial_seconds + 1.0 + 1e-9);
                 let plan = BodyPlan::new(&genome.morphology, payload);
                 let near = if *library == Library::Infeasible {
                     " (near miss)"
@@ -240,7 +244,10 @@ async fn replay(
                 replay_svg(
                     &plan,
                     &frames,
-                    &format!("run {run_id} cell {}{near}: its trial", cell.0),
+                    &format!(
+                        "run {run_id} cell {}{near}: its trial and the second after",
+                        cell.0
+                    ),
                 )
             });
             ((*library, *cell), m.motors, replay)

@@ -201,7 +201,7 @@
       h("a", { href: f.urdf, download: "", target: "_blank", "data-download": "urdf" }, "URDF"), " + ",
       h("a", { href: f.pose, download: "", target: "_blank", "data-download": "pose" }, "start pose"));
     const pictures = h("div", { class: "pictures" }, h("img", { src: f.drawing, alt: "side, front and top views" }));
-    if (f.replay) pictures.append(h("img", { src: f.replay, alt: "animated replay of the trial" }));
+    if (f.replay) pictures.append(h("div", { class: "replay" }, h("img", { src: f.replay, alt: "animated replay of the trial" })));
     else pictures.append(h("p", {}, "No animated replay of this design in the report (report --replays N makes them for the N fittest designs and the N nearest near misses). From the report's folder, ",
       h("code", {}, "strider-worker eval " + f.genome + " --scheme genome --experiment designs/experiment.toml --replay replay.svg"),
       " replays its trial exactly."));
