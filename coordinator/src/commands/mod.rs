@@ -100,6 +100,7 @@ fn init_logs() -> anyhow::Result<()> {
 
 /// Logs for a command whose own lines say what happens: warnings and errors unless
 /// STRIDER_LOG or RUST_LOG asks for more.
+#[cfg(feature = "simulator")]
 fn init_quiet_logs() -> anyhow::Result<()> {
     strider_process::init_logs_at("warn").map_err(|e| UsageError(e).into())
 }
