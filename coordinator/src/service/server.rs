@@ -203,6 +203,9 @@ pub async fn serve(
     Ok(ended)
 }
 
+/// Tries of the exit's checkpoint while the log is busy (20 ms apart).
+const EXIT_CHECKPOINT_TRIES: u32 = 50;
+
 /// The database writer task.
 type Writer = tokio::task::JoinHandle<Result<(), DbError>>;
 
@@ -343,12 +346,23 @@ async fn wind_down(
     }
     // A clean exit leaves the database file whole by itself: the write-ahead log copied
     // in and emptied, so the .db alone can be copied or moved.
-    match shared.db.checkpoint(true).await {
-        Ok(Some(_)) => {}
-        Ok(None) => tracing::warn!(
-            "the write-ahead log is in use by a reader: the database needs its -wal file until the next start"
-        ),
-        Err(e) => tracing::warn!("checkpointing the database at exit: {e}"),
+    // The writer's own checkpointer (a passive checkpoint every 100 ms) or a session's
+    // last read can hold the log for a moment: a busy answer is tried again, for up to a
+    // second, before the exit says the -wal file stays.
+    for attempt in 1..=EXIT_CHECKPOINT_TRIES {
+        match shared.db.checkpoint(true).await {
+            Ok(Some(_)) => break,
+            Ok(None) if attempt < EXIT_CHECKPOINT_TRIES => {
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
+            Ok(None) => tracing::warn!(
+                "the write-ahead log is in use by a reader: the database needs its -wal file until the next start"
+            ),
+            Err(e) => {
+                tracing::warn!("checkpointing the database at exit: {e}");
+                break;
+            }
+        }
     }
     if let Some(backup) = &opts.backup {
         // The live database is complete: a failed copy costs the copy, not the run.
