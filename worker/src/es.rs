@@ -10,8 +10,12 @@
 //! trials that ended early (self-contact, a fall; later is better), above children
 //! stopped before simulating. A fallen child thus ranks below every child that stayed up.
 //! Plain fitness comparison would leave the strategy blind until a child passed the brief.
+//!
+//! A child feasible at the run's step that does not beat its parent is not confirmed at the
+//! finer step (`evaluate_controller_against`): the confirmation could only lower it, so the
+//! strategy's path and result are those of confirming every child.
 
-use crate::trial_outcome::evaluate_controller;
+use crate::trial_outcome::{evaluate_controller, evaluate_controller_against};
 use rand::Rng;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::EvalContext;
@@ -37,7 +41,11 @@ fn tune_with<R: Rng>(ctx: &EvalContext, genome: &Genome, plan: &BodyPlan, rng: &
     for _ in 0..ctx.settings.es_iterations {
         let mut child = *best.controller();
         child.mutate_all(rng);
-        let outcome = evaluate_controller(ctx, genome, plan, &child, &mut ());
+        let Some(outcome) =
+            evaluate_controller_against(ctx, genome, plan, &child, &best.standing())
+        else {
+            continue;
+        };
         if outcome.standing().beats(&best.standing()) {
             best = outcome;
         }

@@ -4,7 +4,8 @@
 use crate::sim::trial::{run_trial_from, Observer, TrialEnd};
 use strider_common::precheck::check_before_trial;
 use strider_common::{
-    BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, StartPose,
+    BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, Standing,
+    StartPose,
 };
 
 /// Evaluates one morphology with one controller: static checks, trial, speed check, and,
@@ -19,6 +20,36 @@ pub fn evaluate_controller(
     observer: &mut impl Observer,
 ) -> Outcome {
     let outcome = judge_at_step(ctx, genome, plan, controller, observer);
+    confirm(ctx, genome, plan, controller, outcome)
+}
+
+/// [`evaluate_controller`] for a trial that matters only if it ranks above `to_beat`
+/// (the ES's parent): `None` where the trial at the run's step is feasible and still does
+/// not, since the confirmation can only keep its standing or lower it. Saves the finer
+/// trial (twice the steps of the first) for most feasible children of a feasible parent.
+pub fn evaluate_controller_against(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    to_beat: &Standing,
+) -> Option<Outcome> {
+    let outcome = judge_at_step(ctx, genome, plan, controller, &mut ());
+    if matches!(outcome, Outcome::Valid { .. }) && !outcome.standing().beats(to_beat) {
+        return None;
+    }
+    Some(confirm(ctx, genome, plan, controller, outcome))
+}
+
+/// `outcome` (at the run's step) if it is not feasible or the confirming trial finds it
+/// feasible too; otherwise invalid, `step_sensitive`.
+fn confirm(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    outcome: Outcome,
+) -> Outcome {
     let factor = ctx.limits.confirm_substeps_factor;
     if factor <= 1 || !matches!(outcome, Outcome::Valid { .. }) {
         return outcome;

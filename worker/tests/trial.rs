@@ -8,13 +8,13 @@ use strider_common::params::{M, MOTOR_MAX_SPEED};
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::EvalContext;
 use strider_common::{
-    BodyPlan, Controller, Fall, Genome, InvalidReason, Outcome, Scheme, StartPose,
+    BodyPlan, Controller, Fall, Genome, InvalidReason, Outcome, Scheme, Standing, StartPose,
 };
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::evaluate;
 use strider_worker::sim::trial::{run_trial, run_trial_with, Observer, Sample, TrialEnd, GRAVITY};
 use strider_worker::sim::world::RobotWorld;
-use strider_worker::trial_outcome::evaluate_controller;
+use strider_worker::trial_outcome::{evaluate_controller, evaluate_controller_against};
 
 fn max() -> Genome {
     strider_common::reference::max()
@@ -750,6 +750,36 @@ fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
     assert!(matches!(confirmed, Outcome::Valid { .. }), "{confirmed:?}");
     let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&confirmed), outcome_hash(&plain));
+}
+
+#[test]
+fn an_es_child_that_cannot_beat_its_parent_is_not_confirmed() {
+    // Feasible at the run's step, step-sensitive at the finer one. Against a parent it
+    // does not beat, the confirmation could only lower it: skipped. Against one it beats,
+    // it is confirmed, and found step-sensitive.
+    let g = Genome::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/step_sensitive.json"),
+    )
+    .unwrap();
+    let plan = BodyPlan::new(&g.morphology, ctx().brief.payload);
+    let controller = Controller::static_default();
+    let mut unconfirmed = ctx();
+    unconfirmed.limits.confirm_substeps_factor = 1;
+    let fitness = match evaluate_controller(&unconfirmed, &g, &plan, &controller, &mut ()) {
+        Outcome::Valid { fitness, .. } => fitness,
+        other => panic!("expected feasible at the run's step, got {other:?}"),
+    };
+    let against =
+        |to_beat: Standing| evaluate_controller_against(&ctx(), &g, &plan, &controller, &to_beat);
+    assert!(against(Standing::Feasible { fitness }).is_none());
+    match against(Standing::EndedEarly { at_time: 0.0 }) {
+        Some(Outcome::Invalid {
+            reason: InvalidReason::StepSensitive { .. },
+            ..
+        }) => {}
+        other => panic!("expected a confirmed step_sensitive, got {other:?}"),
+    }
 }
 
 #[test]
