@@ -9,6 +9,12 @@ use std::process::ExitCode;
 use strider_coordinator::commands::{execute, Cli, Exit};
 use strider_process::{closed_pipe, report, EXIT_FAILURE};
 
+/// The trials' allocator (the embedded simulator's): rapier allocates and frees buffers every
+/// physics step; mimalloc makes a trial about 1.14x faster than glibc's malloc, same results.
+#[cfg(feature = "simulator")]
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// `serve`'s exit status when it stopped for `--stop-leasing-after` before the experiment
 /// finished (EX_TEMPFAIL: serve again on the same database to go on).
 const EXIT_NOT_FINISHED: u8 = 75;

@@ -1,6 +1,10 @@
 //! Trial throughput: trials per second on one core by legs per side, one ES candidate, and
 //! the batch evaluator on one and two threads. Figures go to BENCHMARKS.md.
 
+/// The binaries' allocator, so that the figures are theirs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::num::NonZeroUsize;
 use strider_common::params::M;

@@ -1,6 +1,10 @@
 //! Runs MAX's STATIC trial N times (default 10), for profilers:
 //! `valgrind --tool=callgrind target/release/examples/profile_trial 10 [SUBSTEPS]`.
 
+/// The binaries' allocator, so that the profile is theirs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use strider_common::EvalContext;
 use strider_common::{BodyPlan, Controller};
 use strider_worker::sim::trial::run_trial;

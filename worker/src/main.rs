@@ -10,6 +10,11 @@ use strider_process::{closed_pipe, report};
 use strider_worker::client::WorkerError;
 use strider_worker::commands::{execute, Cli};
 
+/// The trials' allocator: rapier allocates and frees buffers every physics step;
+/// mimalloc makes a trial about 1.14x faster than glibc's malloc, same results.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Exit status of a worker that gave up waiting for a coordinator (`--give-up-after`);
 /// sysexits.h's EX_UNAVAILABLE.
 const EXIT_GAVE_UP: u8 = 69;
