@@ -66,6 +66,13 @@ impl Side {
 /// with, now the same at every physics step and written in the URDF.
 pub const SERVO_DERIVATIVE_TIME: f64 = 1.0 / 30.0;
 
+/// The only bound the model puts on a joint's speed, rad/s (and on the body's, m/s): past it
+/// the trial stops as blown up. A motor's `max_speed` (wmax) sets its gait amplitude and its
+/// mass but does not bound the joint's speed, which in a walk reaches a median 2.35x wmax
+/// (docs/model.md section 6, "A joint's speed"); the URDF writes this as each joint's
+/// velocity limit, so a tool that enforces limits moves the joints as the trial does.
+pub const BLOW_UP_SPEED: f64 = 100.0;
+
 /// A joint's drive after the strength multiplier.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointDrive {

@@ -36,7 +36,7 @@ pub fn hip_reach(leg: &LegPlan, controller: &Controller) -> f64 {
     (rel - a * a.dot(&rel)).norm()
 }
 
-/// The simple kinematic speed estimate of a leg sweeping at its hip's speed limit:
+/// The simple kinematic speed estimate of a leg sweeping at its hip motor's rated speed:
 /// `(2 / pi) r wmax`, m/s (a foot sweeping +-A at frequency sf covers `2 r A` each half
 /// cycle of `pi / sf` s, and `A = wmax / sf`).
 pub fn speed_estimate(plan: &BodyPlan, controller: &Controller) -> f64 {

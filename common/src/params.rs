@@ -31,7 +31,7 @@ pub enum MutationGroup {
     Leg,
     /// Per-link geometry: length, tube width, hinge axis.
     Link,
-    /// Per-joint motor: stiffness, damping, torque and speed limits.
+    /// Per-joint motor: stiffness, damping, torque limit and rated speed.
     Motor,
     /// Gait controller parameters (mutated all together by the GENOME and ES schemes).
     Controller,
@@ -212,15 +212,15 @@ param_table! {
         Motor0Stiffness => ("motor0_stiffness", 2000.0, 6000.0, "Nm/rad", Real, Motor, "hip joint spring stiffness"),
         Motor0Damping => ("motor0_damping", 1.0, 40.0, "Nms/rad", Real, Motor, "hip joint damping"),
         Motor0MaxTorque => ("motor0_max_torque", 50.0, 200.0, "Nm", Real, Motor, "hip joint torque limit"),
-        Motor0MaxSpeed => ("motor0_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "hip joint speed limit wmax (sets the gait amplitude wmax/sf)"),
+        Motor0MaxSpeed => ("motor0_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "hip motor rated speed wmax: the gait's peak target speed (amplitude wmax/sf), sizes the motor; not a bound on the joint"),
         Motor1Stiffness => ("motor1_stiffness", 2000.0, 6000.0, "Nm/rad", Real, Motor, "upper leg joint spring stiffness"),
         Motor1Damping => ("motor1_damping", 1.0, 40.0, "Nms/rad", Real, Motor, "upper leg joint damping"),
         Motor1MaxTorque => ("motor1_max_torque", 50.0, 200.0, "Nm", Real, Motor, "upper leg joint torque limit"),
-        Motor1MaxSpeed => ("motor1_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "upper leg joint speed limit wmax"),
+        Motor1MaxSpeed => ("motor1_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "upper leg motor rated speed wmax"),
         Motor2Stiffness => ("motor2_stiffness", 2000.0, 6000.0, "Nm/rad", Real, Motor, "lower leg joint spring stiffness"),
         Motor2Damping => ("motor2_damping", 1.0, 40.0, "Nms/rad", Real, Motor, "lower leg joint damping"),
         Motor2MaxTorque => ("motor2_max_torque", 50.0, 200.0, "Nm", Real, Motor, "lower leg joint torque limit"),
-        Motor2MaxSpeed => ("motor2_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "lower leg joint speed limit wmax"),
+        Motor2MaxSpeed => ("motor2_max_speed", 0.0, 1.5, "rad/s", Real, Motor, "lower leg motor rated speed wmax"),
     }
 }
 

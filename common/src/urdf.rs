@@ -1,14 +1,14 @@
 //! A body plan as URDF, the robot description ROS, Gazebo, PyBullet, MuJoCo's importer and
 //! most robotics tools read: one link per rigid part (body, and hip, upper and lower leg of
 //! every leg) with its mass, centre of mass and inertia; one revolute joint per motor with
-//! its axis, torque and speed limits (the motor model) and damping.
+//! its axis, torque limit (the motor model), rated speed (in a comment) and damping.
 //!
 //! Frames: the model's body frame is x forward, y up, z to the right (docs/model.md);
 //! URDF's convention (ROS REP 103) is x forward, y left, z up. The root link `body` is in
 //! the URDF convention; every leg link keeps the model's own link frame (origin at its
 //! joint, the tube along +z), so the numbers match `inspect` and the trace.
 
-use crate::body_plan::{BodyPlan, LinkPlan, SERVO_DERIVATIVE_TIME};
+use crate::body_plan::{BodyPlan, LinkPlan, BLOW_UP_SPEED, SERVO_DERIVATIVE_TIME};
 use crate::mass::MassProperties;
 use crate::xml::escape;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -37,12 +37,6 @@ pub fn link_name(leg: usize, link: usize) -> String {
 pub fn joint_name(leg: usize, link: usize) -> String {
     format!("{}_joint", link_name(leg, link))
 }
-
-/// The lowest speed limit written: a motor with `wmax` 0 holds its joint still in the
-/// model's gait, but `velocity="0"` would freeze the joint outright in tools that enforce
-/// limits (it could not even hold against a push). The model's own figure is in the
-/// joint's comment.
-pub const MIN_VELOCITY_LIMIT: f64 = 0.05;
 
 /// Where a design starts, for the URDF of it: the root link `body`'s pose in a world with
 /// URDF's axes (z up, ground at z = 0) and every joint's angle (rad) by joint name. Written
@@ -165,11 +159,11 @@ pub fn to_urdf(name: &str, plan: &BodyPlan) -> String {
     let _ = writeln!(
         out,
         "<!-- Strider design: total mass {total:.3} kg including {:.3} kg payload. Joints carry\n     \
-         the motor model's torque (effort, Nm) and speed (velocity, rad/s) limits; the model\n     \
-         has no angle stops, so position limits are +-pi; a speed limit under {MIN_VELOCITY_LIMIT}\n     \
-         rad/s is written as {MIN_VELOCITY_LIMIT}, so that no joint is frozen. Spring stiffness and the\n     \
-         model's speed limit per joint are in each joint's comment (URDF has no field for\n     \
-         them). Each joint is a position servo: torque = clamp(k (q* - q) - D qdot, +-effort),\n     \
+         the motor model's torque limit (effort, Nm). The model bounds no joint's speed but by\n     \
+         its blow-up check ({BLOW_UP_SPEED} rad/s, the velocity written): a motor's rated speed\n     \
+         wmax sets its gait amplitude and mass, and the walk passes it (docs/model.md section\n     \
+         6). The model has no angle stops, so position limits are +-pi. Spring stiffness and\n     \
+         rated speed per joint are in each joint's comment (URDF has no field for them). Each joint is a position servo: torque = clamp(k (q* - q) - D qdot, +-effort),\n     \
          k the dynamics spring_stiffness (Gazebo's attribute), D the dynamics damping (the\n     \
          encoded damping plus k x {T_V:.6} s, the servo's velocity loop; docs/model.md\n     \
          section 6). The start pose (base pose and joint angles) is in NAME.start_pose.json. -->",
@@ -235,7 +229,7 @@ fn write_joint(
     let t = origin.translation.vector;
     let _ = writeln!(
         out,
-        r#"  <!-- stiffness {:.6} Nm/rad, encoded damping {} Nms/rad, speed limit {} rad/s -->
+        r#"  <!-- stiffness {:.6} Nm/rad, encoded damping {} Nms/rad, rated speed {} rad/s (not a limit) -->
   <joint name="{}" type="revolute">
     <parent link="{parent}"/>
     <child link="{}"/>
@@ -261,7 +255,7 @@ fn write_joint(
         -std::f64::consts::PI,
         std::f64::consts::PI,
         d.max_torque,
-        d.max_speed.max(MIN_VELOCITY_LIMIT),
+        BLOW_UP_SPEED,
         d.servo_damping(),
         d.stiffness,
     );

@@ -31,9 +31,8 @@ pub fn up_axis() -> Vector3<f64> {
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY: f64 = 9.81;
-/// A generalized velocity beyond this (m/s or rad/s) means the simulation blew up: the
-/// robot's joints are limited to 1.5 rad/s targets and the body walks at a few m/s.
-pub const BLOW_UP_SPEED: f64 = 100.0;
+/// A generalized velocity beyond this (m/s or rad/s) means the simulation blew up.
+pub use strider_common::body_plan::BLOW_UP_SPEED;
 
 /// How a trial ended.
 #[derive(Clone, Debug, PartialEq)]
