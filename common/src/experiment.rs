@@ -8,6 +8,10 @@ use crate::variation::{MutationRates, Scheme};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// The friction coefficient between a robot and the ground by default: a rubber foot on a
+/// firm surface.
+pub const DEFAULT_FRICTION: f64 = 0.8;
+
 /// Settings every run of an experiment shares.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -25,6 +29,10 @@ pub struct RunSettings {
     pub physics_substeps: u32,
     /// Iterations of the ES scheme's 1+1 evolution strategy.
     pub es_iterations: u32,
+    /// Coulomb friction coefficient between the robot and the ground (every part; the
+    /// ground has the same). The setting to check a design on a slipperier or grippier
+    /// floor, as `physics_substeps` checks it at a finer step (docs/model.md section 6).
+    pub friction: f64,
 }
 
 impl Default for RunSettings {
@@ -37,6 +45,7 @@ impl Default for RunSettings {
             control_hz: 30.0,
             physics_substeps: 8,
             es_iterations: 20,
+            friction: DEFAULT_FRICTION,
         }
     }
 }
@@ -351,6 +360,7 @@ impl Experiment {
             ));
         }
         check_int("run.es_iterations", r.es_iterations, 1, 10_000)?;
+        check_real("run.friction", r.friction, 0.01, 2.0)?;
         check_real(
             "trial.max_tilt_degrees",
             self.trial.max_tilt_degrees,
@@ -521,6 +531,16 @@ mod tests {
             "{MINIMAL}[run]\ncontrol_hz = 15.0\nphysics_substeps = 1\n"
         ))
         .is_ok());
+    }
+
+    #[test]
+    fn friction_is_a_setting_with_a_range() {
+        let e = Experiment::from_toml(MINIMAL).unwrap();
+        assert_eq!(e.run.friction, DEFAULT_FRICTION);
+        let e = Experiment::from_toml(&format!("{MINIMAL}[run]\nfriction = 0.6\n")).unwrap();
+        assert_eq!(e.run.friction, 0.6);
+        let e = err(&format!("{MINIMAL}[run]\nfriction = 0.0\n"));
+        assert!(e.contains("`run.friction` is 0; allowed: 0.01 to 2"), "{e}");
     }
 
     #[test]

@@ -189,6 +189,62 @@ fn check_refuses_a_bad_experiment_by_field() {
 }
 
 #[test]
+fn fidelity_checks_a_design_at_another_friction() {
+    // MAX at the run's friction and on a floor like wet ice: the coefficient reaches the
+    // contacts (its feet slip and it hardly moves), one CSV row per setting.
+    let genomes = temp_file("max-array.json", &format!("[{}]", max_json()));
+    let csv = genomes.with_file_name("fidelity-friction.csv");
+    let out = run(
+        "strider-worker",
+        &[
+            "fidelity",
+            "--genomes",
+            genomes.to_str().unwrap(),
+            "--substeps",
+            "8",
+            "--friction",
+            "0.05",
+            "--threads",
+            "1",
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
+    let col = |name: &str| rows[0].iter().position(|c| *c == name).unwrap();
+    let (friction, distance) = (col("friction"), col("distance"));
+    assert_eq!(rows.len(), 3, "{text}");
+    assert_eq!(rows[1][friction], "0.8");
+    assert_eq!(rows[2][friction], "0.05");
+    let d = |r: usize| rows[r][distance].parse::<f64>().unwrap_or(0.0);
+    assert!(d(1) > 2.0, "{text}");
+    assert!(d(2) < 0.5 * d(1), "{text}");
+    // A coefficient out of range is refused by name.
+    let out = run(
+        "strider-worker",
+        &[
+            "fidelity",
+            "--genomes",
+            genomes.to_str().unwrap(),
+            "--friction",
+            "5",
+        ],
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--friction 5: a friction coefficient is from 0.01 to 2"),
+        "{err}"
+    );
+}
+
+#[test]
 fn docs_parameter_table_matches_the_code() {
     let doc = std::fs::read_to_string(workspace_root().join("docs/model.md")).unwrap();
     let begin = doc.find("<!-- params:begin -->\n").expect("begin marker")

@@ -1,5 +1,6 @@
 //! Does a verdict depend on the physics step? The same designs evaluated at several
-//! `physics_substeps` (and, on request, with a longer stay-up window after the trial), and
+//! `physics_substeps` (and, on request, with a longer stay-up window after the trial or
+//! another friction coefficient between the robot and the ground), and
 //! each setting compared with the next finer one: how often the verdict agrees, and how far
 //! distance and energy move (docs/model.md section 6, the convergence table).
 
@@ -69,14 +70,16 @@ pub struct Setting {
     pub physics_substeps: u32,
     /// Seconds the robot must stay up after the trial.
     pub upright_after_seconds: f64,
+    /// Friction coefficient between the robot and the ground.
+    pub friction: f64,
 }
 
 impl fmt::Display for Setting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} substeps, {} s after",
-            self.physics_substeps, self.upright_after_seconds
+            "{} substeps, {} s after, friction {}",
+            self.physics_substeps, self.upright_after_seconds, self.friction
         )
     }
 }
@@ -171,6 +174,7 @@ impl Study {
             let mut c = *ctx;
             c.settings.physics_substeps = settings[s].physics_substeps;
             c.limits.upright_after_seconds = settings[s].upright_after_seconds;
+            c.settings.friction = settings[s].friction;
             // Each step judged on its own: the run's confirmation at a finer step is what
             // this study measures, not part of it.
             c.limits.confirm_substeps_factor = 1;
@@ -197,16 +201,17 @@ impl Study {
     pub fn write_csv(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
-            "design,physics_substeps,upright_after_seconds,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
+            "design,physics_substeps,upright_after_seconds,friction,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
         )?;
         let f = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
         for (d, row) in self.trials.iter().enumerate() {
             for (s, t) in self.settings.iter().zip(row) {
                 writeln!(
                     out,
-                    "{d},{},{},{},{},{},{},{},{},{},{}",
+                    "{d},{},{},{},{},{},{},{},{},{},{},{}",
                     s.physics_substeps,
                     s.upright_after_seconds,
+                    s.friction,
                     t.verdict,
                     f(t.distance),
                     f(t.energy),

@@ -38,6 +38,11 @@ pub struct FidelityArgs {
     /// Also evaluate at the first substeps with these stay-up windows after the trial, s.
     #[arg(long, value_delimiter = ',')]
     stay_up: Vec<f64>,
+    /// Also evaluate at the first substeps with these friction coefficients between the
+    /// robot and the ground (the run's is `[run] friction`, 0.8 by default): how much grip
+    /// a design's walk depends on.
+    #[arg(long, value_delimiter = ',')]
+    friction: Vec<f64>,
     /// Threads (all cores by default).
     #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
@@ -133,19 +138,35 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
         "no designs: give --genomes or --random"
     );
     anyhow::ensure!(!args.substeps.is_empty(), "--substeps names no setting");
-    let after = ctx.limits.upright_after_seconds;
+    for &f in &args.friction {
+        anyhow::ensure!(
+            f.is_finite() && (0.01..=2.0).contains(&f),
+            "--friction {f}: a friction coefficient is from 0.01 to 2"
+        );
+    }
+    let run_setting = Setting {
+        physics_substeps: args.substeps[0],
+        upright_after_seconds: ctx.limits.upright_after_seconds,
+        friction: ctx.settings.friction,
+    };
     let mut settings: Vec<Setting> = args
         .substeps
         .iter()
         .map(|&s| Setting {
             physics_substeps: s,
-            upright_after_seconds: after,
+            ..run_setting
         })
         .collect();
     for &w in &args.stay_up {
         settings.push(Setting {
-            physics_substeps: args.substeps[0],
             upright_after_seconds: w,
+            ..run_setting
+        });
+    }
+    for &f in &args.friction {
+        settings.push(Setting {
+            friction: f,
+            ..run_setting
         });
     }
     let total = genomes.len() * settings.len();

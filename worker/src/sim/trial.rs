@@ -160,7 +160,7 @@ pub fn run_trial_with<O: Observer>(
     observer: &mut O,
 ) -> TrialEnd {
     let dt = settings.physics_dt();
-    let mut rw = RobotWorld::new(plan, start, dt);
+    let mut rw = RobotWorld::with_friction(plan, start, dt, settings.friction);
     let substeps = settings.physics_substeps as usize;
     let steps = settings.control_steps() as usize * substeps;
     // Past the trial the robot must stay up a while, its gait going on: one that falls

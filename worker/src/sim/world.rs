@@ -10,12 +10,11 @@ use ::nalgebra::{Isometry3, Matrix3, Unit, UnitQuaternion, Vector3};
 use rapier3d::prelude::*;
 use strider_common::body_plan::{BodyPlan, JointDrive};
 use strider_common::contact::Part;
+use strider_common::experiment::DEFAULT_FRICTION;
 use strider_common::mass::MassProperties as ModelMass;
 use strider_common::params::LINKS_PER_LEG;
 use strider_common::StartPose;
 
-/// Ground friction coefficient (rubber foot on a firm surface).
-pub const GROUND_FRICTION: f32 = 0.8;
 /// Collider `user_data` of the ground.
 pub const GROUND_TAG: u128 = u128::MAX;
 /// Collider `user_data` of the body; links are `1 + 3 * leg + k`.
@@ -103,8 +102,16 @@ fn frame_with_x_axis(axis: &Unit<Vector3<f64>>) -> UnitQuaternion<f64> {
 }
 
 impl RobotWorld {
-    /// The robot of `plan` in `start`, on flat ground, stepping every `dt` seconds.
+    /// The robot of `plan` in `start`, on flat ground, stepping every `dt` seconds, with
+    /// the default friction ([`DEFAULT_FRICTION`]).
     pub fn new(plan: &BodyPlan, start: &StartPose, dt: f64) -> Self {
+        Self::with_friction(plan, start, dt, DEFAULT_FRICTION)
+    }
+
+    /// [`RobotWorld::new`] with `friction` the coefficient of every part and of the ground
+    /// (rapier averages the two: so the contact's coefficient is `friction`).
+    pub fn with_friction(plan: &BodyPlan, start: &StartPose, dt: f64, friction: f64) -> Self {
+        let friction = friction as f32;
         let mut world = PhysicsWorld::new();
         let p = &mut world.integration_parameters;
         p.dt = dt as f32;
@@ -121,7 +128,7 @@ impl RobotWorld {
             .insert(RigidBodyBuilder::fixed().translation(Vector::new(0.0, -0.5, 0.0)));
         world.colliders.insert_with_parent(
             ColliderBuilder::cuboid(1000.0, 0.5, 1000.0)
-                .friction(GROUND_FRICTION)
+                .friction(friction)
                 .user_data(GROUND_TAG),
             ground,
             &mut world.bodies,
@@ -138,7 +145,7 @@ impl RobotWorld {
         world.colliders.insert_with_parent(
             ColliderBuilder::cuboid(h.x as f32, h.y as f32, h.z as f32)
                 .density(0.0)
-                .friction(GROUND_FRICTION)
+                .friction(friction)
                 .user_data(BODY_TAG),
             body,
             &mut world.bodies,
@@ -161,7 +168,7 @@ impl RobotWorld {
                     ColliderBuilder::cuboid(half_w, half_w, (0.5 * link.length) as f32)
                         .translation(Vector::new(0.0, 0.0, (0.5 * link.length) as f32))
                         .density(0.0)
-                        .friction(GROUND_FRICTION)
+                        .friction(friction)
                         .user_data(tag_of(Part::Link {
                             leg: leg_index,
                             link: k,
