@@ -46,6 +46,27 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     );
     let html = std::fs::read_to_string(pages.join("report.html")).unwrap();
 
+    // All files or none: a directory where report.html goes refuses the whole report,
+    // and the designs folder it made is removed again (the output folder was the user's).
+    let blocked = dir.join("blocked");
+    std::fs::create_dir_all(blocked.join("report.html")).unwrap();
+    let out = run(
+        "strider-coordinator",
+        &[
+            "report",
+            "--db",
+            db.to_str().unwrap(),
+            "--out",
+            blocked.to_str().unwrap(),
+        ],
+    );
+    assert!(!out.status.success());
+    let left: Vec<_> = std::fs::read_dir(&blocked)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["report.html"], "{left:?}");
+
     for section in SECTIONS {
         assert!(
             html.contains(&format!("<h2>{section}</h2>")),

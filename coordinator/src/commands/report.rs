@@ -83,9 +83,8 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
         reference: Some((&max, "MAX")),
         trials: trials.as_ref(),
     });
-    // Every file is written, or none (a directory this command made is removed again).
-    let made = !out.exists();
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // Every file is written, or none (the directories this command made are removed
+    // again); everything that can fail before writing (the PNG pictures) is done first.
     let mut files = Outputs::new();
     files.add(out.join("report.html"), report.html.as_bytes());
     let fonts = png::fonts();
@@ -102,27 +101,36 @@ pub async fn execute(args: ReportArgs) -> anyhow::Result<Exit> {
     for t in &report.tables {
         files.add(out.join(format!("{}.csv", t.name)), t.csv.as_bytes());
     }
-    if !report.files.is_empty() {
-        let folder = out.join(designs::FOLDER);
-        std::fs::create_dir_all(&folder)
-            .with_context(|| format!("creating {}", folder.display()))?;
-    }
     for f in &report.files {
         files.add(out.join(&f.path), f.bytes.as_slice());
     }
     // The experiment beside the designs, so that any card's replay command runs as is.
     let experiment_file = crate::db::canonical_toml(&experiment);
+    let folder = out.join(designs::FOLDER);
     if !report.files.is_empty() {
-        files.add(
-            out.join(designs::FOLDER).join("experiment.toml"),
-            experiment_file.as_bytes(),
-        );
+        files.add(folder.join("experiment.toml"), experiment_file.as_bytes());
     }
-    if let Err(e) = files.commit() {
-        if made {
+    let made_out = !out.exists();
+    let made_folder = !report.files.is_empty() && !folder.exists();
+    let written = std::fs::create_dir_all(out)
+        .with_context(|| format!("creating {}", out.display()))
+        .and_then(|()| {
+            if made_folder {
+                std::fs::create_dir_all(&folder)
+                    .with_context(|| format!("creating {}", folder.display()))?;
+            }
+            Ok(files.commit()?)
+        });
+    if let Err(e) = written {
+        // Only directories this command made, and only if empty (remove_dir refuses
+        // otherwise).
+        if made_folder {
+            let _ = std::fs::remove_dir(&folder);
+        }
+        if made_out {
             let _ = std::fs::remove_dir(out);
         }
-        return Err(e.into());
+        return Err(e);
     }
     eprintln!(
         "wrote {} ({} pictures as SVG and PNG, {} tables as CSV, {} files of {} designs in {}/)",
