@@ -26,7 +26,8 @@ pub fn evaluate_controller(
 /// [`evaluate_controller`] for a trial that matters only if it ranks above `to_beat`
 /// (the ES's parent): `None` where the trial at the run's step is feasible and still does
 /// not, since the confirmation can only keep its standing or lower it. Saves the finer
-/// trial (twice the steps of the first) for most feasible children of a feasible parent.
+/// trial (twice the steps of the first) for such a child: few, since feasible children are
+/// rare (5 of 65 confirming trials in 60 ES runs on the 20 fittest elites of a STATIC run).
 pub fn evaluate_controller_against(
     ctx: &EvalContext,
     genome: &Genome,
