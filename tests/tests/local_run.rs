@@ -11,7 +11,8 @@ use strider_tests::{
 
 const TINY: &str = "tests/fixtures/tiny.toml";
 
-fn run_to_end(db: &Path, workers: &str) {
+/// Runs the tiny experiment to its end; returns what the run said on stderr.
+fn run_to_end(db: &Path, workers: &str) -> String {
     let out = run(
         "strider-coordinator",
         &[
@@ -23,25 +24,26 @@ fn run_to_end(db: &Path, workers: &str) {
             workers,
         ],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let said = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{said}");
+    said
 }
 
 #[test]
 fn one_thread_and_two_threads_give_identical_libraries() {
     let dir = temp_dir("threads");
     let (one, two) = (dir.join("one.db"), dir.join("two.db"));
-    run_to_end(&one, "1");
-    run_to_end(&two, "2");
+    let said = [run_to_end(&one, "1"), run_to_end(&two, "2")];
     // A run that ended cleanly leaves no lock file, log or shared memory beside its
     // database: the .db alone.
-    for db in [&one, &two] {
+    for (db, said) in [&one, &two].into_iter().zip(&said) {
         for left in ["db.lock", "db-wal", "db-shm"] {
             let f = db.with_extension(left);
-            assert!(!f.exists(), "{} was left behind", f.display());
+            assert!(
+                !f.exists(),
+                "{} was left behind; the run said:\n{said}",
+                f.display()
+            );
         }
     }
     let (a, b) = (export(&one), export(&two));

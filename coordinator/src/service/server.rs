@@ -198,8 +198,21 @@ pub async fn serve(
     // remove the emptied -wal and -shm files.
     let db = shared.db.clone();
     drop(shared);
-    let _ = tokio::time::timeout(Duration::from_secs(5), writer).await;
-    let _ = tokio::time::timeout(Duration::from_secs(5), db.close()).await;
+    if tokio::time::timeout(Duration::from_secs(5), writer)
+        .await
+        .is_err()
+    {
+        tracing::warn!("the database writer did not end within 5 s of the stop");
+    }
+    // Said, so that a -wal file left beside the database has its reason in the log.
+    if tokio::time::timeout(Duration::from_secs(5), db.close())
+        .await
+        .is_err()
+    {
+        tracing::warn!(
+            "the database's connections did not all close within 5 s: its -wal file stays until the next start"
+        );
+    }
     Ok(ended)
 }
 
