@@ -12,6 +12,9 @@ use std::path::Path;
 /// firm surface.
 pub const DEFAULT_FRICTION: f64 = 0.8;
 
+/// The friction coefficients a run (or `fidelity --friction`) may ask for.
+pub const FRICTION_RANGE: std::ops::RangeInclusive<f64> = 0.01..=2.0;
+
 /// Settings every run of an experiment shares.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -360,7 +363,12 @@ impl Experiment {
             ));
         }
         check_int("run.es_iterations", r.es_iterations, 1, 10_000)?;
-        check_real("run.friction", r.friction, 0.01, 2.0)?;
+        check_real(
+            "run.friction",
+            r.friction,
+            *FRICTION_RANGE.start(),
+            *FRICTION_RANGE.end(),
+        )?;
         check_real(
             "trial.max_tilt_degrees",
             self.trial.max_tilt_degrees,

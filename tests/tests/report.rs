@@ -33,16 +33,24 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
             "2",
         ],
     );
+    let report_into = |out: &std::path::Path| {
+        run(
+            "strider-coordinator",
+            &[
+                "report",
+                "--db",
+                db.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        )
+    };
     let pages = dir.join("report");
-    run_ok(
-        "strider-coordinator",
-        &[
-            "report",
-            "--db",
-            db.to_str().unwrap(),
-            "--out",
-            pages.to_str().unwrap(),
-        ],
+    let out = report_into(&pages);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
     let html = std::fs::read_to_string(pages.join("report.html")).unwrap();
 
@@ -50,17 +58,7 @@ fn the_report_of_a_small_experiment_has_every_section_picture_and_table() {
     // and the designs folder it made is removed again (the output folder was the user's).
     let blocked = dir.join("blocked");
     std::fs::create_dir_all(blocked.join("report.html")).unwrap();
-    let out = run(
-        "strider-coordinator",
-        &[
-            "report",
-            "--db",
-            db.to_str().unwrap(),
-            "--out",
-            blocked.to_str().unwrap(),
-        ],
-    );
-    assert!(!out.status.success());
+    assert!(!report_into(&blocked).status.success());
     let left: Vec<_> = std::fs::read_dir(&blocked)
         .unwrap()
         .map(|e| e.unwrap().file_name())

@@ -1,4 +1,4 @@
-//! `fidelity`: the same designs at several physics steps (and stay-up windows), each
+//! `fidelity`: the same designs at several physics steps (and stay-up windows, frictions), each
 //! setting compared with the next: does the verdict depend on the step?
 
 use super::{context, emit};
@@ -6,6 +6,7 @@ use crate::fidelity::{Setting, Study};
 use anyhow::Context;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
+use strider_common::experiment::FRICTION_RANGE;
 use strider_common::precheck::check_before_trial;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Genome, Scheme, StartPose};
@@ -140,8 +141,10 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
     anyhow::ensure!(!args.substeps.is_empty(), "--substeps names no setting");
     for &f in &args.friction {
         anyhow::ensure!(
-            f.is_finite() && (0.01..=2.0).contains(&f),
-            "--friction {f}: a friction coefficient is from 0.01 to 2"
+            FRICTION_RANGE.contains(&f),
+            "--friction {f}: a friction coefficient is from {} to {}",
+            FRICTION_RANGE.start(),
+            FRICTION_RANGE.end()
         );
     }
     let run_setting = Setting {
