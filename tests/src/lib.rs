@@ -229,8 +229,13 @@ pub struct Process {
     child: std::process::Child,
     lines: std::sync::mpsc::Receiver<String>,
     log: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+    /// The thread reading stderr: finished once the pipe is closed.
+    reader: std::thread::JoinHandle<()>,
     name: String,
 }
+
+/// How long [`Process::wait_exit`] waits, after the exit, for the rest of its stderr.
+const READ_TAIL: std::time::Duration = std::time::Duration::from_secs(5);
 
 impl Process {
     /// Starts `cmd` with stderr captured.
@@ -244,7 +249,7 @@ impl Process {
         let (tx, lines) = std::sync::mpsc::channel();
         let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
         let keep = log.clone();
-        std::thread::spawn(move || {
+        let reader = std::thread::spawn(move || {
             for line in std::io::BufReader::new(stderr).lines() {
                 let Ok(line) = line else { break };
                 keep.lock().expect("log lock").push(line.clone());
@@ -255,6 +260,7 @@ impl Process {
             child,
             lines,
             log,
+            reader,
             name: name.into(),
         }
     }
@@ -309,6 +315,12 @@ impl Process {
         let deadline = std::time::Instant::now() + timeout;
         loop {
             if let Some(status) = self.child.try_wait().expect("try_wait") {
+                // Its last lines may still be in the pipe: read to the end (bounded, as a
+                // process it started may hold the pipe open after it).
+                let read_by = deadline.min(std::time::Instant::now() + READ_TAIL);
+                while !self.reader.is_finished() && std::time::Instant::now() < read_by {
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
                 return status;
             }
             assert!(

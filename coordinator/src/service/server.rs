@@ -193,9 +193,10 @@ pub async fn serve(
     if wind_down(&shared, &mut writer, &opts).await? {
         ended = Ended::Finished;
     }
-    // The writer ends once every sender is gone (sessions that outlived the server's
-    // grace time may hold one: bounded waits); then closing every connection lets SQLite
-    // remove the emptied -wal and -shm files.
+    // The writer is told to end (sessions that outlived the server's grace time may still
+    // hold a sender: what they send now is dropped, as a crash here would drop it); then
+    // closing every connection lets SQLite remove the emptied -wal and -shm files.
+    let _ = shared.writer.send(WriterMessage::Close);
     let db = shared.db.clone();
     drop(shared);
     if tokio::time::timeout(Duration::from_secs(5), writer)

@@ -26,9 +26,13 @@ pub enum WriterMessage {
     Writes(Vec<Write>),
     /// Answer once everything sent before is committed.
     Flush(oneshot::Sender<()>),
+    /// Commit everything sent before, then end: what is sent after is dropped, as a crash
+    /// at this point would lose it (a session that outlives the service's stop may still
+    /// hold a sender, and must not hold the exit).
+    Close,
 }
 
-/// Runs until every sender is dropped; fails on the first database error (the service
+/// Runs until it is sent [`WriterMessage::Close`] or every sender is dropped; fails on the first database error (the service
 /// stops: the database is the only state, so it must not run on without it).
 pub async fn run_writer(
     db: Db,
@@ -113,7 +117,12 @@ async fn write_groups(
         Ok::<(), DbError>(())
     };
     let prepare = async move {
-        while let Some((writes, flushes)) = collect_group(rx, backlog).await {
+        while let Some(Group {
+            writes,
+            flushes,
+            last,
+        }) = collect_group(rx, backlog).await
+        {
             let changes = writes.len();
             let group = match writes.len() {
                 0 => None,
@@ -136,6 +145,9 @@ async fn write_groups(
                 // The committer failed; its error is the one reported.
                 break;
             }
+            if last {
+                break;
+            }
         }
         // Dropping `ready_tx` lets the committer finish what it has and end.
         Ok(())
@@ -144,24 +156,33 @@ async fn write_groups(
     tokio::try_join!(commit, prepare).map(|_| ())
 }
 
+/// Changes collected for one transaction.
+struct Group {
+    writes: Vec<Write>,
+    flushes: Vec<oneshot::Sender<()>>,
+    /// A [`WriterMessage::Close`] ended it: nothing follows.
+    last: bool,
+}
+
 /// The next group: everything queued, then whatever comes within [`GROUP_WINDOW`] of its
-/// first change, up to [`MAX_GROUP`] writes, the first flush, or a full backlog (the
-/// sessions then wait for this commit: waiting out the window would stall them).
+/// first change, up to [`MAX_GROUP`] writes, the first flush or close, or a full backlog
+/// (the sessions then wait for this commit: waiting out the window would stall them).
 /// `None` once every sender is gone and nothing is left.
 async fn collect_group(
     rx: &mut mpsc::UnboundedReceiver<WriterMessage>,
     backlog: &Backlog,
-) -> Option<(Vec<Write>, Vec<oneshot::Sender<()>>)> {
+) -> Option<Group> {
     let first = rx.recv().await?;
     let close_at = tokio::time::Instant::now() + GROUP_WINDOW;
-    let (mut group, mut flushes) = (Vec::new(), Vec::new());
+    let (mut group, mut flushes, mut last) = (Vec::new(), Vec::new(), false);
     let mut next = Some(first);
     while let Some(m) = next {
         match m {
             WriterMessage::Writes(w) => group.extend(w),
             WriterMessage::Flush(done) => flushes.push(done),
+            WriterMessage::Close => last = true,
         }
-        next = if group.len() >= MAX_GROUP || !flushes.is_empty() || backlog.full() {
+        next = if last || group.len() >= MAX_GROUP || !flushes.is_empty() || backlog.full() {
             None
         } else if let Ok(m) = rx.try_recv() {
             Some(m)
@@ -174,5 +195,53 @@ async fn collect_group(
                 .flatten()
         };
     }
-    Some((group, flushes))
+    Some(Group {
+        writes: group,
+        flushes,
+        last,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use strider_common::WorkerId;
+
+    fn joined(id: u64) -> Write {
+        Write::WorkerJoined {
+            id: WorkerId(id),
+            name: format!("w{id}"),
+            build: "test".into(),
+            slots: 1,
+        }
+    }
+
+    #[tokio::test]
+    async fn close_commits_what_came_before_and_ends_while_a_sender_lives() {
+        let dir = std::env::temp_dir().join(format!("strider-writer-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let db = Db::open(&dir.join("w.db"), true).await.unwrap();
+        let backlog = Arc::new(Backlog::default());
+        let (tx, rx) = mpsc::unbounded_channel();
+        let writer = tokio::spawn(run_writer(db.clone(), rx, backlog.clone()));
+        for m in [joined(1), joined(2)] {
+            backlog.queued(1);
+            tx.send(WriterMessage::Writes(vec![m])).unwrap();
+        }
+        tx.send(WriterMessage::Close).unwrap();
+        // Sent after the close (as by a session that outlived the stop): dropped.
+        let _ = tx.send(WriterMessage::Writes(vec![joined(3)]));
+        // `tx` is still alive here: the writer ends on the close alone (bounded, so that a
+        // writer that waits for the senders fails the test instead of hanging it).
+        tokio::time::timeout(std::time::Duration::from_secs(60), writer)
+            .await
+            .expect("the writer ends on Close")
+            .unwrap()
+            .unwrap();
+        assert_eq!(db.next_worker_id().await.unwrap(), WorkerId(3));
+        assert!(backlog.is_empty());
+        drop(tx);
+        db.close().await;
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
