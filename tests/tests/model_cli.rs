@@ -222,6 +222,14 @@ fn fidelity_checks_a_design_at_another_friction() {
     assert_eq!(rows.len(), 3, "{text}");
     assert_eq!(rows[1][friction], "0.8");
     assert_eq!(rows[2][friction], "0.05");
+    // The window a design fast enough is judged by is said, not only the shorter one.
+    assert_eq!(rows[1][col("upright_after_seconds")], "1");
+    assert_eq!(rows[1][col("upright_after_feasible_seconds")], "15");
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        table.contains("8 substeps, up 1 s after (15 s if fast enough), friction 0.8"),
+        "{table}"
+    );
     let d = |r: usize| rows[r][distance].parse::<f64>().unwrap_or(0.0);
     assert!(d(1) > 2.0, "{text}");
     assert!(d(2) < 0.5 * d(1), "{text}");

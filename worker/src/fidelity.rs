@@ -70,6 +70,9 @@ pub struct Setting {
     pub physics_substeps: u32,
     /// Seconds the robot must stay up after the trial.
     pub upright_after_seconds: f64,
+    /// Seconds a robot fast enough to meet the brief must stay up after the trial (the
+    /// longer of this and `upright_after_seconds` applies to it).
+    pub upright_after_feasible_seconds: f64,
     /// Friction coefficient between the robot and the ground.
     pub friction: f64,
 }
@@ -78,9 +81,18 @@ impl fmt::Display for Setting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} substeps, {} s after, friction {}",
-            self.physics_substeps, self.upright_after_seconds, self.friction
-        )
+            "{} substeps, up {} s after",
+            self.physics_substeps, self.upright_after_seconds
+        )?;
+        // The window that judges a feasible design, said where it is the longer one.
+        if self.upright_after_feasible_seconds > self.upright_after_seconds {
+            write!(
+                f,
+                " ({} s if fast enough)",
+                self.upright_after_feasible_seconds
+            )?;
+        }
+        write!(f, ", friction {}", self.friction)
     }
 }
 
@@ -174,6 +186,7 @@ impl Study {
             let mut c = *ctx;
             c.settings.physics_substeps = settings[s].physics_substeps;
             c.limits.upright_after_seconds = settings[s].upright_after_seconds;
+            c.limits.upright_after_feasible_seconds = settings[s].upright_after_feasible_seconds;
             c.settings.friction = settings[s].friction;
             // Each step judged on its own: the run's confirmation at a finer step is what
             // this study measures, not part of it.
@@ -201,16 +214,17 @@ impl Study {
     pub fn write_csv(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
-            "design,physics_substeps,upright_after_seconds,friction,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
+            "design,physics_substeps,upright_after_seconds,upright_after_feasible_seconds,friction,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
         )?;
         let f = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
         for (d, row) in self.trials.iter().enumerate() {
             for (s, t) in self.settings.iter().zip(row) {
                 writeln!(
                     out,
-                    "{d},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{d},{},{},{},{},{},{},{},{},{},{},{},{}",
                     s.physics_substeps,
                     s.upright_after_seconds,
+                    s.upright_after_feasible_seconds,
                     s.friction,
                     t.verdict,
                     f(t.distance),

@@ -150,6 +150,7 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
     let run_setting = Setting {
         physics_substeps: args.substeps[0],
         upright_after_seconds: ctx.limits.upright_after_seconds,
+        upright_after_feasible_seconds: ctx.limits.upright_after_feasible_seconds,
         friction: ctx.settings.friction,
     };
     let mut settings: Vec<Setting> = args
