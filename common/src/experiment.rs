@@ -119,6 +119,11 @@ pub struct TrialLimits {
     /// Why: a balance that holds at one step and not at a finer one is the integrator's,
     /// not the robot's (docs/model.md section 6, "Confirmed at a finer step").
     pub confirm_substeps_factor: u32,
+    /// A shove at the trial's end: the whole robot's sideways velocity changes by this
+    /// much, m/s (0: none), before the window it must stay up through. A gait that keeps
+    /// walking takes a shove (docs/model.md section 6); distance and energy count over the
+    /// trial only, so only the verdict can change.
+    pub push_speed: f64,
 }
 
 impl Default for TrialLimits {
@@ -134,9 +139,14 @@ impl Default for TrialLimits {
             max_low_forward_share: 0.4,
             speed_margin: 0.05,
             confirm_substeps_factor: 2,
+            push_speed: 0.0,
         }
     }
 }
+
+/// The shoves a trial may give, m/s (`[trial] push_speed`, `fidelity --push`): up to a
+/// brisk walk's speed.
+pub const PUSH_SPEED_RANGE: std::ops::RangeInclusive<f64> = 0.0..=2.0;
 
 /// How a run treats designs that fail the brief (docs/model.md section 11).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -412,6 +422,12 @@ impl Experiment {
             600.0,
         )?;
         check_real("trial.speed_margin", self.trial.speed_margin, 0.0, 1.0)?;
+        check_real(
+            "trial.push_speed",
+            self.trial.push_speed,
+            *PUSH_SPEED_RANGE.start(),
+            *PUSH_SPEED_RANGE.end(),
+        )?;
         check_int(
             "trial.confirm_substeps_factor",
             self.trial.confirm_substeps_factor,
@@ -549,6 +565,19 @@ mod tests {
         assert_eq!(e.run.friction, 0.6);
         let e = err(&format!("{MINIMAL}[run]\nfriction = 0.0\n"));
         assert!(e.contains("`run.friction` is 0; allowed: 0.01 to 2"), "{e}");
+    }
+
+    #[test]
+    fn a_shove_is_off_unless_asked_and_has_a_range() {
+        let e = Experiment::from_toml(MINIMAL).unwrap();
+        assert_eq!(e.trial.push_speed, 0.0);
+        let e = Experiment::from_toml(&format!("{MINIMAL}[trial]\npush_speed = 0.3\n")).unwrap();
+        assert_eq!(e.trial.push_speed, 0.3);
+        let e = err(&format!("{MINIMAL}[trial]\npush_speed = 2.5\n"));
+        assert!(
+            e.contains("`trial.push_speed` is 2.5; allowed: 0 to 2"),
+            "{e}"
+        );
     }
 
     #[test]

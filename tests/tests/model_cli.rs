@@ -250,6 +250,23 @@ fn fidelity_checks_a_design_at_another_friction() {
         err.contains("--friction 5: a friction coefficient is from 0.01 to 2"),
         "{err}"
     );
+    // And so is a shove out of range.
+    let out = run(
+        "strider-worker",
+        &[
+            "fidelity",
+            "--genomes",
+            genomes.to_str().unwrap(),
+            "--push",
+            "3",
+        ],
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--push 3: a shove is from 0 to 2 m/s"),
+        "{err}"
+    );
 }
 
 #[test]

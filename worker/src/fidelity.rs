@@ -75,6 +75,8 @@ pub struct Setting {
     pub upright_after_feasible_seconds: f64,
     /// Friction coefficient between the robot and the ground.
     pub friction: f64,
+    /// Sideways shove at the trial's end, m/s (0: none).
+    pub push_speed: f64,
 }
 
 impl fmt::Display for Setting {
@@ -92,7 +94,11 @@ impl fmt::Display for Setting {
                 self.upright_after_feasible_seconds
             )?;
         }
-        write!(f, ", friction {}", self.friction)
+        write!(f, ", friction {}", self.friction)?;
+        if self.push_speed > 0.0 {
+            write!(f, ", pushed {} m/s", self.push_speed)?;
+        }
+        Ok(())
     }
 }
 
@@ -188,6 +194,7 @@ impl Study {
             c.limits.upright_after_seconds = settings[s].upright_after_seconds;
             c.limits.upright_after_feasible_seconds = settings[s].upright_after_feasible_seconds;
             c.settings.friction = settings[s].friction;
+            c.limits.push_speed = settings[s].push_speed;
             // Each step judged on its own: the run's confirmation at a finer step is what
             // this study measures, not part of it.
             c.limits.confirm_substeps_factor = 1;
@@ -214,18 +221,19 @@ impl Study {
     pub fn write_csv(&self, out: &mut impl std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
-            "design,physics_substeps,upright_after_seconds,upright_after_feasible_seconds,friction,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
+            "design,physics_substeps,upright_after_seconds,upright_after_feasible_seconds,friction,push_speed,verdict,distance,energy,fitness,peak_torque_ratio,foot_slip,low_forward_share,duty_factor"
         )?;
         let f = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
         for (d, row) in self.trials.iter().enumerate() {
             for (s, t) in self.settings.iter().zip(row) {
                 writeln!(
                     out,
-                    "{d},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{d},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     s.physics_substeps,
                     s.upright_after_seconds,
                     s.upright_after_feasible_seconds,
                     s.friction,
+                    s.push_speed,
                     t.verdict,
                     f(t.distance),
                     f(t.energy),

@@ -817,3 +817,44 @@ fn motor_sizing_sees_the_trials_own_torques_and_work() {
         frames.len()
     );
 }
+
+#[test]
+fn a_shove_at_the_trials_end_moves_the_robot_sideways_and_leaves_the_trials_figures() {
+    // MAX, held to a 3-s window after its trial, shoved to its right at the trial's end:
+    // just after it, its centre of mass moves right at about the shove's speed faster than
+    // without it (the gait sways it either way); distance and energy (over the trial) are
+    // the unshoved ones.
+    let c = ctx();
+    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
+    let trial = |push: f64| {
+        let mut limits = c.limits;
+        limits.upright_after_seconds = 3.0;
+        limits.push_speed = push;
+        let mut rec = Recorder::default();
+        let end = run_trial(
+            &plan,
+            &Controller::static_default(),
+            &c.settings,
+            &limits,
+            &mut rec,
+        );
+        (end, rec)
+    };
+    let (calm, calm_rec) = trial(0.0);
+    let (shoved, shoved_rec) = trial(0.5);
+    let (TrialEnd::Completed(a), TrialEnd::Completed(b)) = (&calm, &shoved) else {
+        panic!("MAX completes both: {calm:?} {shoved:?}");
+    };
+    assert_eq!(a, b, "the trial's figures do not see a shove after it");
+    let end = (c.settings.trial_seconds * c.settings.control_hz).round() as usize;
+    // Sideways speed over the control step after the shove (sample `end` is the first one
+    // after the trial's end, when it is given).
+    let speed =
+        |r: &Recorder| (r.com[end][2] - r.com[end - 1][2]) / (r.time[end] - r.time[end - 1]);
+    let (before, after) = (speed(&calm_rec), speed(&shoved_rec));
+    println!("sideways {before} m/s calm, {after} m/s shoved");
+    assert!(
+        (after - before - 0.5).abs() < 0.15,
+        "sideways speed {before} m/s calm, {after} m/s shoved by 0.5 m/s"
+    );
+}

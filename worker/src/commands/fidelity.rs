@@ -6,7 +6,7 @@ use crate::fidelity::{Setting, Study};
 use anyhow::Context;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
-use strider_common::experiment::FRICTION_RANGE;
+use strider_common::experiment::{FRICTION_RANGE, PUSH_SPEED_RANGE};
 use strider_common::precheck::check_before_trial;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{BodyPlan, Controller, Genome, Scheme, StartPose};
@@ -44,6 +44,11 @@ pub struct FidelityArgs {
     /// a design's walk depends on.
     #[arg(long, value_delimiter = ',')]
     friction: Vec<f64>,
+    /// Also evaluate at the first substeps with a shove at the trial's end: the whole
+    /// robot's sideways velocity changed by each of these, m/s, before the window it must
+    /// stay up through: whether its gait recovers.
+    #[arg(long, value_delimiter = ',')]
+    push: Vec<f64>,
     /// Threads (all cores by default).
     #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
@@ -147,11 +152,20 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
             FRICTION_RANGE.end()
         );
     }
+    for &p in &args.push {
+        anyhow::ensure!(
+            PUSH_SPEED_RANGE.contains(&p),
+            "--push {p}: a shove is from {} to {} m/s",
+            PUSH_SPEED_RANGE.start(),
+            PUSH_SPEED_RANGE.end()
+        );
+    }
     let run_setting = Setting {
         physics_substeps: args.substeps[0],
         upright_after_seconds: ctx.limits.upright_after_seconds,
         upright_after_feasible_seconds: ctx.limits.upright_after_feasible_seconds,
         friction: ctx.settings.friction,
+        push_speed: ctx.limits.push_speed,
     };
     let mut settings: Vec<Setting> = args
         .substeps
@@ -170,6 +184,12 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
     for &f in &args.friction {
         settings.push(Setting {
             friction: f,
+            ..run_setting
+        });
+    }
+    for &p in &args.push {
+        settings.push(Setting {
+            push_speed: p,
             ..run_setting
         });
     }

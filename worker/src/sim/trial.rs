@@ -201,6 +201,9 @@ pub fn run_trial_with<O: Observer>(
             if speed >= feasible_speed {
                 after = long_after;
             }
+            if limits.push_speed > 0.0 {
+                shove(&mut rw, limits.push_speed);
+            }
         }
         let t = step as f64 * dt;
         if step % substeps == 0 {
@@ -313,6 +316,14 @@ pub fn run_trial_with<O: Observer>(
         duration,
         gait,
     })
+}
+
+/// Changes the whole robot's sideways velocity (+z, to its right) by `speed`, m/s: the
+/// root's linear velocity is the first three of a free multibody's generalized velocities,
+/// and every link's velocity is relative to it.
+fn shove(rw: &mut RobotWorld, speed: f64) {
+    let mut v = rw.robot_mut().generalized_velocity_mut();
+    v[2] += speed as Real;
 }
 
 /// A trial is judged for skating only when the robot walked at least this far, m (about a
