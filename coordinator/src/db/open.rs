@@ -92,12 +92,24 @@ fn lock(path: &Path) -> Result<WriterLock, DbError> {
     })
 }
 
+/// Most passes of [`Db::close`] (one is enough unless a connection came back mid-close).
+const CLOSE_PASSES: usize = 4;
+
 impl Db {
     /// Closes every connection of this database (and its clones). SQLite removes the
     /// write-ahead log and shared-memory files when the last connection closes, so a
     /// clean exit leaves the `.db` alone beside its lock.
     pub async fn close(&self) {
-        self.pool.close().await;
+        // sqlx's close can return with a connection still open: one handed back to the
+        // idle queue while its last wait (for every permit) was under way is never closed.
+        // Left open at exit, it keeps the emptied -wal and the -shm beside the file (seen:
+        // 2 of 24 local runs, the pool at size 1 after close). Each pass closes what is idle.
+        for _ in 0..CLOSE_PASSES {
+            self.pool.close().await;
+            if self.pool.size() == 0 {
+                break;
+            }
+        }
     }
 
     /// Opens a database to write it, as its only writer: refuses while another process
