@@ -119,11 +119,19 @@ pub struct TrialLimits {
     /// Why: a balance that holds at one step and not at a finer one is the integrator's,
     /// not the robot's (docs/model.md section 6, "Confirmed at a finer step").
     pub confirm_substeps_factor: u32,
-    /// A shove at the trial's end: the whole robot's sideways velocity changes by this
-    /// much, m/s (0: none), before the window it must stay up through. A gait that keeps
-    /// walking takes a shove (docs/model.md section 6); distance and energy count over the
-    /// trial only, so only the verdict can change.
+    /// A shove at the trial's end for a design fast enough to meet the brief: the whole
+    /// robot's sideways velocity changes by this much, m/s (0: none), before the long
+    /// window it must stay up through. A gait that keeps walking takes a shove
+    /// (docs/model.md section 6); distance and energy count over the trial only, so only
+    /// the verdict can change.
     pub push_speed: f64,
+    /// A design feasible at the run's step (and at the confirming step) is simulated
+    /// again on floors with this fraction less and more grip (`[run] friction` times 1 -
+    /// this and 1 + this), and is feasible only if it is feasible on both; otherwise it
+    /// is invalid, `friction_sensitive`. 0 turns it off. Why: a walk that holds on one
+    /// floor only is one a second engine's contacts, or a real floor, tip over
+    /// (docs/model.md section 6).
+    pub friction_margin: f64,
 }
 
 impl Default for TrialLimits {
@@ -140,6 +148,7 @@ impl Default for TrialLimits {
             speed_margin: 0.05,
             confirm_substeps_factor: 2,
             push_speed: 0.0,
+            friction_margin: 0.0,
         }
     }
 }
@@ -423,6 +432,29 @@ impl Experiment {
         )?;
         check_real("trial.speed_margin", self.trial.speed_margin, 0.0, 1.0)?;
         check_real(
+            "trial.friction_margin",
+            self.trial.friction_margin,
+            0.0,
+            0.9,
+        )?;
+        for f in [
+            self.run.friction * (1.0 - self.trial.friction_margin),
+            self.run.friction * (1.0 + self.trial.friction_margin),
+        ] {
+            if self.trial.friction_margin > 0.0 && !FRICTION_RANGE.contains(&f) {
+                return Err(invalid(
+                    "trial.friction_margin",
+                    format!(
+                        "is {}: it takes `run.friction` {} to {f}, outside {} to {}",
+                        self.trial.friction_margin,
+                        self.run.friction,
+                        FRICTION_RANGE.start(),
+                        FRICTION_RANGE.end()
+                    ),
+                ));
+            }
+        }
+        check_real(
             "trial.push_speed",
             self.trial.push_speed,
             *PUSH_SPEED_RANGE.start(),
@@ -576,6 +608,27 @@ mod tests {
         let e = err(&format!("{MINIMAL}[trial]\npush_speed = 2.5\n"));
         assert!(
             e.contains("`trial.push_speed` is 2.5; allowed: 0 to 2"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_friction_margin_is_off_unless_asked_and_keeps_both_floors_in_range() {
+        let e = Experiment::from_toml(MINIMAL).unwrap();
+        assert_eq!(e.trial.friction_margin, 0.0);
+        let e =
+            Experiment::from_toml(&format!("{MINIMAL}[trial]\nfriction_margin = 0.25\n")).unwrap();
+        assert_eq!(e.trial.friction_margin, 0.25);
+        let e = err(&format!("{MINIMAL}[trial]\nfriction_margin = 0.95\n"));
+        assert!(
+            e.contains("`trial.friction_margin` is 0.95; allowed: 0 to 0.9"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{MINIMAL}[run]\nfriction = 1.8\n[trial]\nfriction_margin = 0.25\n"
+        ));
+        assert!(
+            e.contains("`trial.friction_margin` is 0.25: it takes `run.friction` 1.8 to 2.25, outside 0.01 to 2"),
             "{e}"
         );
     }

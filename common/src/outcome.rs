@@ -98,6 +98,15 @@ pub enum InvalidReason {
         /// The finer trial's verdict, e.g. "fell: tilted 20.3° (limit 20°) at 12.40 s".
         verdict: String,
     },
+    /// Feasible at the run's physics step and friction, not on a floor with less or more
+    /// grip (`[trial] friction_margin`): its walk holds on one floor only.
+    /// `at_time` is when that trial ended (its whole length if it ran to the end).
+    FrictionSensitive {
+        /// The friction coefficient of that trial.
+        friction: f64,
+        /// Its verdict, e.g. "fell: tilted 20.3° (limit 20°) at 12.40 s".
+        verdict: String,
+    },
     /// No result came back: the workers evaluating it died or hung `attempts` times, so the
     /// coordinator gave up on it (its generation goes on without it).
     EvaluationFailed {
@@ -130,6 +139,10 @@ impl std::fmt::Display for InvalidReason {
             InvalidReason::StepSensitive { substeps, verdict } => write!(
                 f,
                 "feasible at the run's step, not at {substeps} physics steps per control step: {verdict}"
+            ),
+            InvalidReason::FrictionSensitive { friction, verdict } => write!(
+                f,
+                "feasible on the run's floor, not at friction {friction}: {verdict}"
             ),
         }
     }
@@ -217,6 +230,8 @@ impl std::fmt::Display for Fall {
 pub enum Shortfall {
     /// Met the brief at the run's physics step, not at the finer step that confirms it.
     StepSensitive,
+    /// Met the brief on the run's floor, not on one with less or more grip.
+    FrictionSensitive,
     /// Ran to the end upright and forward, below the brief's speed.
     Speed,
     /// Ran to the end upright, not forward.
@@ -233,8 +248,9 @@ pub enum Shortfall {
 
 impl Shortfall {
     /// Every shortfall, nearest the brief first.
-    pub const ALL: [Shortfall; 7] = [
+    pub const ALL: [Shortfall; 8] = [
         Shortfall::StepSensitive,
+        Shortfall::FrictionSensitive,
         Shortfall::Speed,
         Shortfall::Backward,
         Shortfall::Skating,
@@ -247,6 +263,7 @@ impl Shortfall {
     pub fn name(self) -> &'static str {
         match self {
             Shortfall::StepSensitive => "step_sensitive",
+            Shortfall::FrictionSensitive => "friction_sensitive",
             Shortfall::Speed => "speed",
             Shortfall::Backward => "backward",
             Shortfall::Skating => "skating",
@@ -260,6 +277,7 @@ impl Shortfall {
     pub fn label(self) -> &'static str {
         match self {
             Shortfall::StepSensitive => "step-sensitive",
+            Shortfall::FrictionSensitive => "friction-sensitive",
             Shortfall::Speed => "too slow",
             Shortfall::Backward => "backward",
             Shortfall::Skating => "skating",
@@ -273,6 +291,7 @@ impl Shortfall {
     pub fn meaning(self) -> &'static str {
         match self {
             Shortfall::StepSensitive => "met the brief at the run's physics step but not at the finer step that confirms every feasible design",
+            Shortfall::FrictionSensitive => "met the brief on the run's floor but not on one with less or more grip ([trial] friction_margin)",
             Shortfall::Speed => "walked the whole trial upright and forward, slower than the brief's minimum speed",
             Shortfall::Backward => "stayed upright to the end but did not move forward",
             Shortfall::Skating => "stayed upright to the end, its feet sliding along the ground instead of stepping (slip and low forward travel past the [trial] limits)",
@@ -441,7 +460,10 @@ impl Outcome {
                 | InvalidReason::Skating { .. }
                 | InvalidReason::NonFinite { .. }
                 | InvalidReason::BlowUp { .. }
-                | InvalidReason::StepSensitive { .. } => Standing::EndedEarly { at_time: *at_time },
+                | InvalidReason::StepSensitive { .. }
+                | InvalidReason::FrictionSensitive { .. } => {
+                    Standing::EndedEarly { at_time: *at_time }
+                }
             },
         }
     }
@@ -461,6 +483,7 @@ impl Outcome {
                 InvalidReason::Fell { .. } => Some(Shortfall::Fell),
                 InvalidReason::Skating { .. } => Some(Shortfall::Skating),
                 InvalidReason::StepSensitive { .. } => Some(Shortfall::StepSensitive),
+                InvalidReason::FrictionSensitive { .. } => Some(Shortfall::FrictionSensitive),
                 InvalidReason::SelfContact { .. } => Some(Shortfall::SelfContact),
                 InvalidReason::NonFinite { .. } | InvalidReason::BlowUp { .. } => {
                     Some(Shortfall::Unstable)

@@ -254,6 +254,11 @@ impl From<&Outcome> for v1::Outcome {
                         w.value = f64::from(*substeps);
                         w.quantity = verdict.clone();
                     }
+                    InvalidReason::FrictionSensitive { friction, verdict } => {
+                        w.reason = Reason::FrictionSensitive.into();
+                        w.value = *friction;
+                        w.quantity = verdict.clone();
+                    }
                     InvalidReason::EvaluationFailed { attempts, last } => {
                         w.reason = Reason::EvaluationFailed.into();
                         w.value = f64::from(*attempts);
@@ -426,6 +431,19 @@ impl TryFrom<&v1::Outcome> for Outcome {
                         }
                         InvalidReason::StepSensitive {
                             substeps: substeps as u32,
+                            verdict: i.quantity.clone(),
+                        }
+                    }
+                    Ok(Reason::FrictionSensitive) => {
+                        let friction = finite("outcome.invalid.value", i.value)?;
+                        if !(friction > 0.0 && friction <= 10.0) {
+                            return Err(wire_err(
+                                "outcome.invalid.value",
+                                format!("{friction} is not a friction coefficient (above 0, at most 10)"),
+                            ));
+                        }
+                        InvalidReason::FrictionSensitive {
+                            friction,
                             verdict: i.quantity.clone(),
                         }
                     }

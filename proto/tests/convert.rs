@@ -119,6 +119,15 @@ fn outcomes() -> Vec<Outcome> {
             controller: c,
         },
         Outcome::Invalid {
+            reason: InvalidReason::FrictionSensitive {
+                friction: 1.0000000000000002,
+                verdict: "fell: body tilted 20.0 degrees (limit 20.0)".into(),
+            },
+            at_time: 16.4,
+            controller: c,
+        },
+        // Last: the refusal test below takes it.
+        Outcome::Invalid {
             reason: InvalidReason::StepSensitive {
                 substeps: 16,
                 verdict: "fell: body tilted 20.1 degrees (limit 20.0)".into(),
@@ -240,5 +249,14 @@ fn a_nan_fitness_or_malformed_outcome_is_refused_by_field() {
     assert_eq!(
         Outcome::try_from(&bad).unwrap_err().to_string(),
         "outcome.invalid.value: 2.5 is not a number of physics steps per control step (1 to 512)"
+    );
+    let mut bad = v1::Outcome::from(&step_sensitive);
+    if let Some(v1::outcome::Kind::Invalid(i)) = bad.kind.as_mut() {
+        i.reason = v1::invalid::Reason::FrictionSensitive.into();
+        i.value = 0.0;
+    }
+    assert_eq!(
+        Outcome::try_from(&bad).unwrap_err().to_string(),
+        "outcome.invalid.value: 0 is not a friction coefficient (above 0, at most 10)"
     );
 }

@@ -54,8 +54,16 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0003`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "11");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "12");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "6|1");
+    // Both tables that name shortfalls take the one of migration 0012.
+    assert_eq!(
+        sql(
+            &db,
+            "SELECT COUNT(*) FROM sqlite_master WHERE name IN ('candidates', 'infeasible_cells') AND sql LIKE '%''friction_sensitive''%'"
+        ),
+        "2"
+    );
     // Its experiment row, stored before rows had checksums, was given one (migration 0011).
     assert_eq!(sql(&db, "SELECT checksum IS NOT NULL FROM experiment"), "1");
 
@@ -107,7 +115,7 @@ fn a_database_made_before_migration_0004_resumes_with_uniform_infeasible_parents
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0004`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "11");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "12");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "10|1");
     let definition = sql(&db, "SELECT definition FROM experiment");
     assert!(

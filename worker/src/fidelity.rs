@@ -198,6 +198,7 @@ impl Study {
             // Each step judged on its own: the run's confirmation at a finer step is what
             // this study measures, not part of it.
             c.limits.confirm_substeps_factor = 1;
+            c.limits.friction_margin = 0.0;
             let o = evaluate(&c, &genomes[d], scheme, CandidateSeed::new(1, d as u64));
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
             Trial::of(&o)

@@ -10,8 +10,9 @@ use strider_common::{
 
 /// Evaluates one morphology with one controller: static checks, trial, speed check, and,
 /// for a design feasible at the run's step, the same trial at the finer confirming step
-/// (`[trial] confirm_substeps_factor`). The outcome's figures are the run's step's: the
-/// finer trial only decides whether they stand.
+/// (`[trial] confirm_substeps_factor`) and on floors with less and more grip (`[trial]
+/// friction_margin`). The outcome's figures are the run's trial's: the confirming trials
+/// only decide whether they stand.
 pub fn evaluate_controller(
     ctx: &EvalContext,
     genome: &Genome,
@@ -42,8 +43,10 @@ pub fn evaluate_controller_against(
     Some(confirm(ctx, genome, plan, controller, outcome))
 }
 
-/// `outcome` (at the run's step) if it is not feasible or the confirming trial finds it
-/// feasible too; otherwise invalid, `step_sensitive`.
+/// `outcome` (the run's trial) if it is not feasible or every confirming trial finds it
+/// feasible too: first at the finer step (else invalid, `step_sensitive`), then on the
+/// floor with less grip and the one with more (else `friction_sensitive`). The first that
+/// fails ends it, so a design that fails pays only the trials up to that one.
 fn confirm(
     ctx: &EvalContext,
     genome: &Genome,
@@ -51,24 +54,44 @@ fn confirm(
     controller: &Controller,
     outcome: Outcome,
 ) -> Outcome {
-    let factor = ctx.limits.confirm_substeps_factor;
-    if factor <= 1 || !matches!(outcome, Outcome::Valid { .. }) {
+    if !matches!(outcome, Outcome::Valid { .. }) {
         return outcome;
     }
-    let mut finer = *ctx;
-    finer.settings.physics_substeps = ctx.settings.physics_substeps * factor;
-    let confirmation = judge_at_step(&finer, genome, plan, controller, &mut ());
-    match confirmation {
-        Outcome::Valid { .. } => outcome,
-        Outcome::Rejected { .. } | Outcome::Invalid { .. } => Outcome::Invalid {
-            at_time: ended_at(&confirmation),
-            reason: InvalidReason::StepSensitive {
-                substeps: finer.settings.physics_substeps,
-                verdict: describe(&confirmation),
-            },
-            controller: *controller,
-        },
+    let factor = ctx.limits.confirm_substeps_factor;
+    if factor > 1 {
+        let mut finer = *ctx;
+        finer.settings.physics_substeps = ctx.settings.physics_substeps * factor;
+        let confirmation = judge_at_step(&finer, genome, plan, controller, &mut ());
+        if !matches!(confirmation, Outcome::Valid { .. }) {
+            return Outcome::Invalid {
+                at_time: ended_at(&confirmation),
+                reason: InvalidReason::StepSensitive {
+                    substeps: finer.settings.physics_substeps,
+                    verdict: describe(&confirmation),
+                },
+                controller: *controller,
+            };
+        }
     }
+    let margin = ctx.limits.friction_margin;
+    if margin > 0.0 {
+        for friction in [1.0 - margin, 1.0 + margin].map(|m| ctx.settings.friction * m) {
+            let mut floor = *ctx;
+            floor.settings.friction = friction;
+            let confirmation = judge_at_step(&floor, genome, plan, controller, &mut ());
+            if !matches!(confirmation, Outcome::Valid { .. }) {
+                return Outcome::Invalid {
+                    at_time: ended_at(&confirmation),
+                    reason: InvalidReason::FrictionSensitive {
+                        friction,
+                        verdict: describe(&confirmation),
+                    },
+                    controller: *controller,
+                };
+            }
+        }
+    }
+    outcome
 }
 
 /// When a trial that did not meet the brief ended, s: a stopped trial's time, else its

@@ -12,7 +12,9 @@ use strider_common::{
 };
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::evaluate;
-use strider_worker::sim::trial::{run_trial, run_trial_with, Observer, Sample, TrialEnd, GRAVITY};
+use strider_worker::sim::trial::{
+    run_trial, run_trial_from, run_trial_with, Observer, Sample, TrialEnd, GRAVITY,
+};
 use strider_worker::sim::world::RobotWorld;
 use strider_worker::trial_outcome::{evaluate_controller, evaluate_controller_against};
 
@@ -820,26 +822,38 @@ fn motor_sizing_sees_the_trials_own_torques_and_work() {
 
 #[test]
 fn a_shove_at_the_trials_end_moves_the_robot_sideways_and_leaves_the_trials_figures() {
-    // MAX, held to a 3-s window after its trial, shoved to its right at the trial's end:
-    // just after it, its centre of mass moves right at about the shove's speed faster than
-    // without it (the gait sways it either way); distance and energy (over the trial) are
-    // the unshoved ones.
+    // MAX, taken as fast enough for the brief (so held to the 15-s window), shoved to its
+    // right at the trial's end: just after it, its centre of mass moves right at about the
+    // shove's speed faster than without it (the gait sways it either way); distance and
+    // energy (over the trial) are the unshoved ones. Too slow for the brief, it is not
+    // shoved at all.
     let c = ctx();
     let plan = BodyPlan::new(&max().morphology, c.brief.payload);
-    let trial = |push: f64| {
+    let controller = Controller::static_default();
+    let start = StartPose::new(&plan, &controller);
+    let run = |push: f64, feasible_speed: f64| {
         let mut limits = c.limits;
-        limits.upright_after_seconds = 3.0;
         limits.push_speed = push;
         let mut rec = Recorder::default();
-        let end = run_trial(
+        let end = run_trial_from(
             &plan,
-            &Controller::static_default(),
+            &start,
+            &controller,
             &c.settings,
             &limits,
+            feasible_speed,
             &mut rec,
         );
         (end, rec)
     };
+    let trial = |push: f64| run(push, 0.0);
+    let (slow, slow_rec) = run(0.5, f64::INFINITY);
+    let (slow_calm, slow_calm_rec) = run(0.0, f64::INFINITY);
+    assert_eq!(slow, slow_calm);
+    assert_eq!(
+        slow_rec.com, slow_calm_rec.com,
+        "a slow design is not shoved"
+    );
     let (calm, calm_rec) = trial(0.0);
     let (shoved, shoved_rec) = trial(0.5);
     let (TrialEnd::Completed(a), TrialEnd::Completed(b)) = (&calm, &shoved) else {
@@ -857,4 +871,42 @@ fn a_shove_at_the_trials_end_moves_the_robot_sideways_and_leaves_the_trials_figu
         (after - before - 0.5).abs() < 0.15,
         "sideways speed {before} m/s calm, {after} m/s shoved by 0.5 m/s"
     );
+}
+
+#[test]
+fn a_design_feasible_on_one_floor_only_is_friction_sensitive() {
+    // The fittest elite of a 1000-generation STATIC run made without the friction margin:
+    // it meets the brief at friction 0.8 (and at the finer step) and tips over at 1.0.
+    // With a margin of 0.25 it is invalid, naming that floor; a design of the same run that
+    // walks on both floors keeps its figures, bit for bit.
+    let fixture = |name: &str| {
+        Genome::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/fixtures")
+                .join(name),
+        )
+        .unwrap()
+    };
+    let mut margin = ctx();
+    margin.limits.friction_margin = 0.25;
+    let g = fixture("friction_sensitive.json");
+    let plain = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(matches!(plain, Outcome::Valid { .. }), "{plain:?}");
+    match evaluate(&margin, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Invalid {
+            reason: InvalidReason::FrictionSensitive { friction, verdict },
+            at_time,
+            ..
+        } => {
+            assert!((friction - 1.0).abs() < 1e-12, "{friction}");
+            assert!(verdict.starts_with("fell"), "{verdict}");
+            assert!(at_time > 0.0 && at_time < 20.0, "{at_time}");
+        }
+        other => panic!("expected friction_sensitive, got {other:?}"),
+    }
+    let g = fixture("walks_on_every_floor.json");
+    let kept = evaluate(&margin, &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(matches!(kept, Outcome::Valid { .. }), "{kept:?}");
+    let plain = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert_eq!(outcome_hash(&kept), outcome_hash(&plain));
 }

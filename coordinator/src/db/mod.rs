@@ -135,6 +135,7 @@ pub fn standing_of(shortfall: Shortfall, figure: f64) -> Standing {
     match shortfall {
         Shortfall::Speed | Shortfall::Backward => Standing::TooSlow { speed: figure },
         Shortfall::StepSensitive
+        | Shortfall::FrictionSensitive
         | Shortfall::Skating
         | Shortfall::Fell
         | Shortfall::SelfContact

@@ -98,6 +98,8 @@ pub enum Verdict {
     TooSlow,
     /// Met the brief at the run's step, not at the finer confirming step.
     StepSensitive,
+    /// Met the brief on the run's floor, not on one with less or more grip.
+    FrictionSensitive,
     /// Met the whole brief.
     Passed,
 }
@@ -130,6 +132,7 @@ impl Verdict {
             Verdict::Skated,
             Verdict::TooSlow,
             Verdict::StepSensitive,
+            Verdict::FrictionSensitive,
             Verdict::Passed,
         ]);
         v
@@ -147,7 +150,10 @@ impl Verdict {
     pub fn walked_forward_upright(self) -> bool {
         matches!(
             self,
-            Verdict::TooSlow | Verdict::StepSensitive | Verdict::Passed
+            Verdict::TooSlow
+                | Verdict::StepSensitive
+                | Verdict::FrictionSensitive
+                | Verdict::Passed
         )
     }
 
@@ -159,6 +165,7 @@ impl Verdict {
                 | Verdict::Skated
                 | Verdict::TooSlow
                 | Verdict::StepSensitive
+                | Verdict::FrictionSensitive
                 | Verdict::Passed
         )
     }
@@ -187,6 +194,7 @@ impl Verdict {
             Verdict::Skated => "skated".into(),
             Verdict::TooSlow => "too slow".into(),
             Verdict::StepSensitive => "step-sensitive".into(),
+            Verdict::FrictionSensitive => "friction-sensitive".into(),
             Verdict::Passed => "passed".into(),
         }
     }
@@ -230,6 +238,7 @@ impl Verdict {
                 InvalidReason::NoForwardProgress { .. } => Verdict::Backward,
                 InvalidReason::Skating { .. } => Verdict::Skated,
                 InvalidReason::StepSensitive { .. } => Verdict::StepSensitive,
+                InvalidReason::FrictionSensitive { .. } => Verdict::FrictionSensitive,
             },
         }
     }
@@ -431,6 +440,7 @@ fn cause(verdict: Verdict, sweep: &GaitSweep, brief_distance: f64) -> Option<Cau
         Verdict::Passed
         | Verdict::Skated
         | Verdict::StepSensitive
+        | Verdict::FrictionSensitive
         | Verdict::RejectedMass
         | Verdict::RejectedHeight
         | Verdict::RejectedStartPoseContact => None,

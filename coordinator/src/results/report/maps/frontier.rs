@@ -9,6 +9,7 @@ pub const FEASIBLE_COLOUR: &str = "#1b7837";
 fn shortfall_colour(s: Shortfall) -> &'static str {
     match s {
         Shortfall::StepSensitive => "#a6dba0",
+        Shortfall::FrictionSensitive => "#b8e186",
         Shortfall::Speed => "#f1b82d",
         Shortfall::Backward => "#a6611a",
         Shortfall::Skating => "#4393c3",
