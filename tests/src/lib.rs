@@ -316,8 +316,9 @@ impl Process {
         loop {
             if let Some(status) = self.child.try_wait().expect("try_wait") {
                 // Its last lines may still be in the pipe: read to the end (bounded, as a
-                // process it started may hold the pipe open after it).
-                let read_by = deadline.min(std::time::Instant::now() + READ_TAIL);
+                // process it started may hold the pipe open after it; not cut by the exit's
+                // deadline, which the process met).
+                let read_by = std::time::Instant::now() + READ_TAIL;
                 while !self.reader.is_finished() && std::time::Instant::now() < read_by {
                     std::thread::sleep(std::time::Duration::from_millis(20));
                 }

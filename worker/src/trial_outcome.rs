@@ -26,9 +26,10 @@ pub fn evaluate_controller(
 
 /// [`evaluate_controller`] for a trial that matters only if it ranks above `to_beat`
 /// (the ES's parent): `None` where the trial at the run's step is feasible and still does
-/// not, since the confirmation can only keep its standing or lower it. Saves the finer
-/// trial (twice the steps of the first) for such a child: few, since feasible children are
-/// rare (5 of 65 confirming trials in 60 ES runs on the 20 fittest elites of a STATIC run).
+/// not, since the confirmation can only keep its standing or lower it. Saves the confirming
+/// trials (the finer step's, twice the steps of the first, and the floors' of `[trial]
+/// friction_margin`) for such a child: few, since feasible children are rare (5 of 65
+/// confirming trials in 60 ES runs on the 20 fittest elites of a STATIC run).
 pub fn evaluate_controller_against(
     ctx: &EvalContext,
     genome: &Genome,
@@ -75,7 +76,9 @@ fn confirm(
     }
     let margin = ctx.limits.friction_margin;
     if margin > 0.0 {
-        for friction in [1.0 - margin, 1.0 + margin].map(|m| ctx.settings.friction * m) {
+        for friction in
+            [1.0 - margin, 1.0 + margin].map(|m| floor_friction(ctx.settings.friction * m))
+        {
             let mut floor = *ctx;
             floor.settings.friction = friction;
             let confirmation = judge_at_step(&floor, genome, plan, controller, &mut ());
@@ -92,6 +95,13 @@ fn confirm(
         }
     }
     outcome
+}
+
+/// A confirming floor's friction coefficient, rounded to 1e-6: the value a user types to
+/// try that floor (`fidelity --friction 0.6`), not 0.8 x 0.75 = 0.6000000000000001, one
+/// float step away, which on a gait near the tipping edge can be another verdict.
+fn floor_friction(f: f64) -> f64 {
+    (f * 1e6).round() / 1e6
 }
 
 /// When a trial that did not meet the brief ended, s: a stopped trial's time, else its

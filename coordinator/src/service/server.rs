@@ -199,11 +199,12 @@ pub async fn serve(
     let _ = shared.writer.send(WriterMessage::Close);
     let db = shared.db.clone();
     drop(shared);
-    if tokio::time::timeout(Duration::from_secs(5), writer)
-        .await
-        .is_err()
-    {
-        tracing::warn!("the database writer did not end within 5 s of the stop");
+    match tokio::time::timeout(Duration::from_secs(5), writer).await {
+        Err(_) => tracing::warn!("the database writer did not end within 5 s of the stop"),
+        // Said: the last group (what came between the flush and the close) is not stored.
+        Ok(Ok(Err(e))) => tracing::warn!("the database writer's last commit failed: {e}"),
+        Ok(Err(e)) => tracing::warn!("the database writer panicked at the stop: {e}"),
+        Ok(Ok(Ok(()))) => {}
     }
     // Said, so that a -wal file left beside the database has its reason in the log.
     if tokio::time::timeout(Duration::from_secs(5), db.close())

@@ -46,7 +46,8 @@ pub struct FidelityArgs {
     friction: Vec<f64>,
     /// Also evaluate at the first substeps with a shove at the trial's end: the whole
     /// robot's sideways velocity changed by each of these, m/s, before the window it must
-    /// stay up through: whether its gait recovers.
+    /// stay up through (a design fast enough for the brief only: the others' verdicts do
+    /// not change): whether its gait recovers.
     #[arg(long, value_delimiter = ',')]
     push: Vec<f64>,
     /// Threads (all cores by default).
