@@ -32,8 +32,9 @@ pub enum WriterMessage {
     Close,
 }
 
-/// Runs until it is sent [`WriterMessage::Close`] or every sender is dropped; fails on the first database error (the service
-/// stops: the database is the only state, so it must not run on without it).
+/// Runs until it is sent [`WriterMessage::Close`] or every sender is dropped; fails on the
+/// first database error (the service stops: the database is the only state, so it must
+/// not run on without it).
 pub async fn run_writer(
     db: Db,
     mut rx: mpsc::UnboundedReceiver<WriterMessage>,

@@ -1,5 +1,5 @@
-//! `fidelity`: the same designs at several physics steps (and stay-up windows, frictions), each
-//! setting compared with the next: does the verdict depend on the step?
+//! `fidelity`: the same designs at several physics steps (and stay-up windows, floors,
+//! shoves), each setting compared with the next: does the verdict depend on the step?
 
 use super::{context, emit};
 use crate::fidelity::{Setting, Study};
