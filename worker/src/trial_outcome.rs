@@ -58,43 +58,62 @@ fn confirm(
     if !matches!(outcome, Outcome::Valid { .. }) {
         return outcome;
     }
-    let factor = ctx.limits.confirm_substeps_factor;
-    if factor > 1 {
-        let mut finer = *ctx;
-        finer.settings.physics_substeps = ctx.settings.physics_substeps * factor;
-        let confirmation = judge_at_step(&finer, genome, plan, controller, &mut ());
+    for check in Confirmation::all(ctx) {
+        let confirmation = judge_at_step(&check.context(ctx), genome, plan, controller, &mut ());
         if !matches!(confirmation, Outcome::Valid { .. }) {
             return Outcome::Invalid {
                 at_time: ended_at(&confirmation),
-                reason: InvalidReason::StepSensitive {
-                    substeps: finer.settings.physics_substeps,
-                    verdict: describe(&confirmation),
-                },
+                reason: check.failed(describe(&confirmation)),
                 controller: *controller,
             };
         }
     }
-    let margin = ctx.limits.friction_margin;
-    if margin > 0.0 {
-        for friction in
-            [1.0 - margin, 1.0 + margin].map(|m| floor_friction(ctx.settings.friction * m))
-        {
-            let mut floor = *ctx;
-            floor.settings.friction = friction;
-            let confirmation = judge_at_step(&floor, genome, plan, controller, &mut ());
-            if !matches!(confirmation, Outcome::Valid { .. }) {
-                return Outcome::Invalid {
-                    at_time: ended_at(&confirmation),
-                    reason: InvalidReason::FrictionSensitive {
-                        friction,
-                        verdict: describe(&confirmation),
-                    },
-                    controller: *controller,
-                };
+    outcome
+}
+
+/// A confirming trial: the run's trial with one setting changed.
+#[derive(Clone, Copy)]
+enum Confirmation {
+    /// At this many physics steps per control step.
+    FinerStep(u32),
+    /// On a floor with this friction coefficient.
+    Floor(f64),
+}
+
+impl Confirmation {
+    /// The run's confirming trials, in the order they are tried.
+    fn all(ctx: &EvalContext) -> Vec<Self> {
+        let mut all = Vec::new();
+        let factor = ctx.limits.confirm_substeps_factor;
+        if factor > 1 {
+            all.push(Self::FinerStep(ctx.settings.physics_substeps * factor));
+        }
+        let margin = ctx.limits.friction_margin;
+        if margin > 0.0 {
+            for m in [1.0 - margin, 1.0 + margin] {
+                all.push(Self::Floor(floor_friction(ctx.settings.friction * m)));
             }
         }
+        all
     }
-    outcome
+
+    /// The context of this trial.
+    fn context(self, ctx: &EvalContext) -> EvalContext {
+        let mut c = *ctx;
+        match self {
+            Self::FinerStep(substeps) => c.settings.physics_substeps = substeps,
+            Self::Floor(friction) => c.settings.friction = friction,
+        }
+        c
+    }
+
+    /// Why a design that fails it is invalid, given its verdict there.
+    fn failed(self, verdict: String) -> InvalidReason {
+        match self {
+            Self::FinerStep(substeps) => InvalidReason::StepSensitive { substeps, verdict },
+            Self::Floor(friction) => InvalidReason::FrictionSensitive { friction, verdict },
+        }
+    }
 }
 
 /// A confirming floor's friction coefficient, rounded to 1e-6: the value a user types to

@@ -26,6 +26,16 @@ fn ctx() -> EvalContext {
     EvalContext::paper()
 }
 
+/// A design from `tests/fixtures`.
+fn fixture(name: &str) -> Genome {
+    Genome::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures")
+            .join(name),
+    )
+    .unwrap()
+}
+
 /// A hash of every bit of an outcome (JSON floats round-trip exactly).
 fn outcome_hash(o: &Outcome) -> u64 {
     let mut h = DefaultHasher::new();
@@ -717,14 +727,6 @@ fn a_robot_fast_enough_for_the_brief_must_stay_up_the_longer_window() {
 fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
     // An elite of a 1000-generation STATIC run made without the confirmation: it walks the
     // trial and the 15 s after it at 240 Hz, and tips over at 480 Hz.
-    let fixture = |name: &str| {
-        Genome::load(
-            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/fixtures")
-                .join(name),
-        )
-        .unwrap()
-    };
     let g = fixture("step_sensitive.json");
     let mut unconfirmed = ctx();
     unconfirmed.limits.confirm_substeps_factor = 1;
@@ -759,11 +761,7 @@ fn an_es_child_that_cannot_beat_its_parent_is_not_confirmed() {
     // Feasible at the run's step, step-sensitive at the finer one. Against a parent it
     // does not beat, the confirmation could only lower it: skipped. Against one it beats,
     // it is confirmed, and found step-sensitive.
-    let g = Genome::load(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/fixtures/step_sensitive.json"),
-    )
-    .unwrap();
+    let g = fixture("step_sensitive.json");
     let plan = BodyPlan::new(&g.morphology, ctx().brief.payload);
     let controller = Controller::static_default();
     let mut unconfirmed = ctx();
@@ -879,14 +877,6 @@ fn a_design_feasible_on_one_floor_only_is_friction_sensitive() {
     // it meets the brief at friction 0.8 (and at the finer step) and tips over at 1.0.
     // With a margin of 0.25 it is invalid, naming that floor; a design of the same run that
     // walks on both floors keeps its figures, bit for bit.
-    let fixture = |name: &str| {
-        Genome::load(
-            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/fixtures")
-                .join(name),
-        )
-        .unwrap()
-    };
     let mut margin = ctx();
     margin.limits.friction_margin = 0.25;
     let g = fixture("friction_sensitive.json");
