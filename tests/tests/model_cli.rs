@@ -160,6 +160,11 @@ fn check_lists_the_paper_runs() {
         "{text}"
     );
     assert!(text.contains("trials of MAX to their end in"), "{text}");
+    // A design that meets the brief costs more: its confirming trials are said.
+    assert!(
+        text.contains("a design that meets the brief is simulated again before it counts: at 2x the physics steps (2 trials' time); up to 2 trials' time more"),
+        "{text}"
+    );
 
     let out = run(
         "strider-coordinator",
@@ -171,6 +176,30 @@ fn check_lists_the_paper_runs() {
         "{text}"
     );
     assert!(!text.contains("measured now"), "{text}");
+}
+
+#[test]
+fn check_says_what_the_confirming_floors_cost() {
+    let path = temp_file(
+        "floors.toml",
+        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nfriction_margin = 0.25\nconfirm_substeps_factor = 1\n",
+    );
+    let out = run(
+        "strider-coordinator",
+        &["check", path.to_str().unwrap(), "--no-calibration"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
+    assert!(
+        text.contains("simulated again before it counts: on floors of friction 0.6 and 1 (2 trials); up to 2 trials' time more"),
+        "{text}"
+    );
+    assert!(!text.contains("physics steps ("), "{text}");
 }
 
 #[test]
