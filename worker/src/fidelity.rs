@@ -65,7 +65,7 @@ impl Trial {
 }
 
 /// One setting of the study.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Setting {
     pub physics_substeps: u32,
     /// Seconds the robot must stay up after the trial.
@@ -177,9 +177,27 @@ fn agreement(trials: &[Vec<Trial>], settings: &[Setting], a: usize, b: usize) ->
     }
 }
 
+/// The setting that setting `s` (> 0) is compared with: the one before it when the two
+/// differ only in the physics step (a convergence ladder: 120 -> 240 -> 480 Hz), else the
+/// first, the run's own (a window, floor or shove against the run's, not against the
+/// finest step before it).
+fn compared_with(settings: &[Setting], s: usize) -> usize {
+    let (a, b) = (settings[s - 1], settings[s]);
+    let same_but_step = Setting {
+        physics_substeps: b.physics_substeps,
+        ..a
+    };
+    if same_but_step == b {
+        s - 1
+    } else {
+        0
+    }
+}
+
 impl Study {
     /// Evaluates `genomes` under `scheme` at every setting (`ctx` gives everything else)
-    /// and compares each setting with the next.
+    /// and compares each setting after the first with the one it varies from
+    /// ([`compared_with`]).
     pub fn run(
         ctx: &EvalContext,
         genomes: &[Genome],
@@ -213,7 +231,7 @@ impl Study {
             trials.push(it.by_ref().take(settings.len()).collect());
         }
         let agreements = (1..settings.len())
-            .map(|s| agreement(&trials, settings, s - 1, s))
+            .map(|s| agreement(&trials, settings, compared_with(settings, s), s))
             .collect();
         Self {
             settings: settings.to_vec(),
@@ -295,5 +313,51 @@ impl fmt::Display for Study {
             )?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn setting(physics_substeps: u32) -> Setting {
+        Setting {
+            physics_substeps,
+            upright_after_seconds: 1.0,
+            upright_after_feasible_seconds: 15.0,
+            friction: 0.8,
+            push_speed: 0.0,
+        }
+    }
+
+    #[test]
+    fn steps_form_a_ladder_and_other_settings_are_compared_with_the_runs() {
+        // fidelity --substeps 4,8,16 --stay-up 3,15 --friction 0.6 --push 0.3
+        let run = setting(4);
+        let settings = [
+            run,
+            setting(8),
+            setting(16),
+            Setting {
+                upright_after_seconds: 3.0,
+                ..run
+            },
+            Setting {
+                upright_after_seconds: 15.0,
+                ..run
+            },
+            Setting {
+                friction: 0.6,
+                ..run
+            },
+            Setting {
+                push_speed: 0.3,
+                ..run
+            },
+        ];
+        let with: Vec<usize> = (1..settings.len())
+            .map(|s| compared_with(&settings, s))
+            .collect();
+        assert_eq!(with, [0, 1, 0, 0, 0, 0]);
     }
 }

@@ -1,5 +1,6 @@
 //! `fidelity`: the same designs at several physics steps (and stay-up windows, floors,
-//! shoves), each setting compared with the next: does the verdict depend on the step?
+//! shoves): the steps each compared with the one before, the other settings with the run's:
+//! does the verdict depend on the step?
 
 use super::{context, emit};
 use crate::fidelity::{Setting, Study};
