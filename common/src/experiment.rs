@@ -109,9 +109,11 @@ pub struct TrialLimits {
     /// (3 cm): past it the feet shuffle along the ground instead of stepping.
     pub max_low_forward_share: f64,
     /// Fraction by which a design's average speed must beat the brief's `min_speed` in
-    /// the trial to count as feasible: a safety factor for the physics step's error, so
-    /// that a design in the library still meets the brief at any finer step
-    /// (docs/model.md section 6, "A verdict that holds at a finer step").
+    /// the run's own trial to count as feasible: a safety factor for the physics step's
+    /// error, so that a design in the library still meets the brief at any finer step
+    /// (docs/model.md section 6, "A verdict that holds at a finer step"). The confirming
+    /// trials (`confirm_substeps_factor`, `friction_margin`) ask the brief as written:
+    /// they are the check of that error, not a second trial to pass with the margin.
     pub speed_margin: f64,
     /// A design feasible at the run's physics step is simulated again at a step this many
     /// times finer (`physics_substeps` times this) and is feasible only if it is feasible
@@ -150,6 +152,19 @@ impl Default for TrialLimits {
             push_speed: 0.0,
             friction_margin: 0.0,
         }
+    }
+}
+
+impl TrialLimits {
+    /// The floors of the confirming trials (`[trial] friction_margin`): the run's
+    /// `friction` times 1 - margin and 1 + margin, rounded to 1e-6, or `None` with the
+    /// margin off. Rounded because it is the value a user types to try that floor
+    /// (`fidelity --friction 0.6`), not 0.8 x 0.75 = 0.6000000000000001, one float step
+    /// away, which on a gait near the tipping edge can be another verdict.
+    pub fn confirming_floors(&self, friction: f64) -> Option<[f64; 2]> {
+        let m = self.friction_margin;
+        let rounded = |f: f64| (f * 1e6).round() / 1e6;
+        (m > 0.0).then(|| [rounded(friction * (1.0 - m)), rounded(friction * (1.0 + m))])
     }
 }
 
@@ -437,11 +452,13 @@ impl Experiment {
             0.0,
             0.9,
         )?;
-        for f in [
-            self.run.friction * (1.0 - self.trial.friction_margin),
-            self.run.friction * (1.0 + self.trial.friction_margin),
-        ] {
-            if self.trial.friction_margin > 0.0 && !FRICTION_RANGE.contains(&f) {
+        for f in self
+            .trial
+            .confirming_floors(self.run.friction)
+            .into_iter()
+            .flatten()
+        {
+            if !FRICTION_RANGE.contains(&f) {
                 return Err(invalid(
                     "trial.friction_margin",
                     format!(
@@ -616,9 +633,12 @@ mod tests {
     fn the_friction_margin_is_off_unless_asked_and_keeps_both_floors_in_range() {
         let e = Experiment::from_toml(MINIMAL).unwrap();
         assert_eq!(e.trial.friction_margin, 0.0);
+        assert_eq!(e.trial.confirming_floors(e.run.friction), None);
         let e =
             Experiment::from_toml(&format!("{MINIMAL}[trial]\nfriction_margin = 0.25\n")).unwrap();
         assert_eq!(e.trial.friction_margin, 0.25);
+        // The floors a user types (0.6, not 0.8 x 0.75 = 0.6000000000000001).
+        assert_eq!(e.trial.confirming_floors(0.8), Some([0.6, 1.0]));
         let e = err(&format!("{MINIMAL}[trial]\nfriction_margin = 0.95\n"));
         assert!(
             e.contains("`trial.friction_margin` is 0.95; allowed: 0 to 0.9"),

@@ -900,3 +900,39 @@ fn a_design_feasible_on_one_floor_only_is_friction_sensitive() {
     let plain = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&kept), outcome_hash(&plain));
 }
+
+#[test]
+fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
+    // A candidate of the 1000-generation STATIC run with the friction margin and the shove
+    // (docs/model.md section 6): 1.07 m/s at friction 0.8, and 1.02 m/s on the floor with a
+    // quarter less grip, which meets the brief (1.0 m/s) but not the margin the run's own
+    // trial asks (1.05 m/s). The confirming trial asks the brief: it is feasible, with the
+    // run's trial's figures.
+    let mut robust = ctx();
+    robust.limits.friction_margin = 0.25;
+    robust.limits.push_speed = 0.3;
+    let g = fixture("meets_the_brief_on_the_slippery_floor.json");
+    let kept = evaluate(&robust, &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert!(matches!(kept, Outcome::Valid { .. }), "{kept:?}");
+    let mut unconfirmed = robust;
+    (
+        unconfirmed.limits.friction_margin,
+        unconfirmed.limits.push_speed,
+    ) = (0.0, 0.0);
+    let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
+    assert_eq!(outcome_hash(&kept), outcome_hash(&plain));
+    // As the run's own trial, the slippery floor's trial is short of the margin.
+    let mut slippery = unconfirmed;
+    slippery.settings.friction = 0.6;
+    match evaluate(&slippery, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Rejected {
+            stats: Some(stats), ..
+        } => assert!(
+            stats.speed >= robust.brief.min_speed
+                && stats.speed < robust.brief.required_speed(robust.limits.speed_margin),
+            "{}",
+            stats.speed
+        ),
+        other => panic!("expected a speed short of the margin only, got {other:?}"),
+    }
+}

@@ -28,11 +28,6 @@ fn hours_text(h: f64) -> String {
     }
 }
 
-/// A friction coefficient as the worker rounds it (0.6, not 0.6000000000000001).
-fn rounded(f: f64) -> f64 {
-    (f * 1e6).round() / 1e6
-}
-
 /// Prints what the experiment file defines and what it would cost here.
 pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     let (path, calibrate) = (args.experiment.as_path(), !args.no_calibration);
@@ -101,16 +96,14 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
             "at {factor}x the physics steps ({factor} trials' time)"
         ));
     }
-    if e.trial.friction_margin > 0.0 {
+    let floors = e.trial.confirming_floors(e.run.friction);
+    if let Some([less, more]) = floors {
         confirming.push(format!(
-            "on floors of friction {} and {} (2 trials)",
-            rounded(e.run.friction * (1.0 - e.trial.friction_margin)),
-            rounded(e.run.friction * (1.0 + e.trial.friction_margin))
+            "on floors of friction {less} and {more} (2 trials)"
         ));
     }
     if !confirming.is_empty() {
-        let extra =
-            if factor > 1 { factor } else { 0 } + if e.trial.friction_margin > 0.0 { 2 } else { 0 };
+        let extra = if factor > 1 { factor } else { 0 } + if floors.is_some() { 2 } else { 0 };
         outln!(
             "a design that meets the brief is simulated again before it counts: {}; up to {extra} trials' time more for such a candidate, not in the bounds below (in the 1000-generation STATIC run of docs/model.md section 6, 5 % of candidates reached it)",
             confirming.join(", ")
