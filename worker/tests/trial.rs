@@ -935,4 +935,20 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
         ),
         other => panic!("expected a speed short of the margin only, got {other:?}"),
     }
+    // Meeting the brief as written, a confirming trial holds the design to the long window
+    // after it, shove included, as any trial fast enough for the brief: a candidate of the
+    // same run walks 1.006 m/s at 480 Hz (refused for that before) and then tips past the
+    // window's 20 degrees.
+    let g = fixture("meets_the_brief_at_the_finer_step_then_falls.json");
+    match evaluate(&robust, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Invalid {
+            reason: InvalidReason::StepSensitive { verdict, .. },
+            at_time,
+            ..
+        } => {
+            assert!(verdict.starts_with("fell"), "{verdict}");
+            assert!(at_time > robust.settings.trial_seconds, "{at_time}");
+        }
+        other => panic!("expected a fall at the finer step, got {other:?}"),
+    }
 }

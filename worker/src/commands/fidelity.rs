@@ -54,7 +54,10 @@ pub struct FidelityArgs {
     /// Threads (all cores by default).
     #[arg(long, value_parser = strider_process::at_least_one)]
     threads: Option<NonZeroUsize>,
-    /// Take settings, brief and features from this experiment file (paper defaults otherwise).
+    /// Take settings, brief and features from this experiment file (paper defaults
+    /// otherwise). Every setting is judged with its `[trial] speed_margin` (0.05 by default),
+    /// as a run's own trial is; a run's confirming trials (finer step, floors) ask the brief
+    /// as written: give a file with `speed_margin = 0` to see their verdict.
     #[arg(long)]
     experiment: Option<PathBuf>,
     /// Print JSON instead of a table.

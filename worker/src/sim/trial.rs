@@ -124,7 +124,8 @@ pub fn run_trial<O: Observer>(
 
 /// [`run_trial`] from a start pose already computed (`StartPose::new(plan, controller)`),
 /// a design whose speed at the trial's end is at least `feasible_speed` (the brief's,
-/// margin included) being held to the longer stay-up window.
+/// with the speed margin in the run's own trial, without it in a confirming trial) being
+/// held to the longer stay-up window.
 pub fn run_trial_from<O: Observer>(
     plan: &BodyPlan,
     start: &StartPose,
