@@ -149,8 +149,8 @@ impl Default for TrialLimits {
             max_low_forward_share: 0.4,
             speed_margin: 0.05,
             confirm_substeps_factor: 2,
-            push_speed: 0.0,
-            friction_margin: 0.0,
+            push_speed: 0.3,
+            friction_margin: 0.25,
         }
     }
 }
@@ -462,7 +462,8 @@ impl Experiment {
                 return Err(invalid(
                     "trial.friction_margin",
                     format!(
-                        "is {}: it takes `run.friction` {} to {f}, outside {} to {}",
+                        "is {}: it takes `run.friction` {} to {f}, outside {} to {} \
+                         (set a smaller `trial.friction_margin`, or 0 for no floors but the run's)",
                         self.trial.friction_margin,
                         self.run.friction,
                         FRICTION_RANGE.start(),
@@ -617,11 +618,11 @@ mod tests {
     }
 
     #[test]
-    fn a_shove_is_off_unless_asked_and_has_a_range() {
+    fn a_shove_is_on_by_default_can_be_turned_off_and_has_a_range() {
         let e = Experiment::from_toml(MINIMAL).unwrap();
-        assert_eq!(e.trial.push_speed, 0.0);
-        let e = Experiment::from_toml(&format!("{MINIMAL}[trial]\npush_speed = 0.3\n")).unwrap();
         assert_eq!(e.trial.push_speed, 0.3);
+        let e = Experiment::from_toml(&format!("{MINIMAL}[trial]\npush_speed = 0.0\n")).unwrap();
+        assert_eq!(e.trial.push_speed, 0.0);
         let e = err(&format!("{MINIMAL}[trial]\npush_speed = 2.5\n"));
         assert!(
             e.contains("`trial.push_speed` is 2.5; allowed: 0 to 2"),
@@ -630,27 +631,30 @@ mod tests {
     }
 
     #[test]
-    fn the_friction_margin_is_off_unless_asked_and_keeps_both_floors_in_range() {
+    fn the_friction_margin_is_on_by_default_can_be_turned_off_and_keeps_both_floors_in_range() {
         let e = Experiment::from_toml(MINIMAL).unwrap();
-        assert_eq!(e.trial.friction_margin, 0.0);
-        assert_eq!(e.trial.confirming_floors(e.run.friction), None);
-        let e =
-            Experiment::from_toml(&format!("{MINIMAL}[trial]\nfriction_margin = 0.25\n")).unwrap();
         assert_eq!(e.trial.friction_margin, 0.25);
         // The floors a user types (0.6, not 0.8 x 0.75 = 0.6000000000000001).
-        assert_eq!(e.trial.confirming_floors(0.8), Some([0.6, 1.0]));
+        assert_eq!(e.trial.confirming_floors(e.run.friction), Some([0.6, 1.0]));
+        let e =
+            Experiment::from_toml(&format!("{MINIMAL}[trial]\nfriction_margin = 0.0\n")).unwrap();
+        assert_eq!(e.trial.friction_margin, 0.0);
+        assert_eq!(e.trial.confirming_floors(0.8), None);
         let e = err(&format!("{MINIMAL}[trial]\nfriction_margin = 0.95\n"));
         assert!(
             e.contains("`trial.friction_margin` is 0.95; allowed: 0 to 0.9"),
             "{e}"
         );
-        let e = err(&format!(
-            "{MINIMAL}[run]\nfriction = 1.8\n[trial]\nfriction_margin = 0.25\n"
-        ));
+        // The default margin too names the setting to change.
+        let e = err(&format!("{MINIMAL}[run]\nfriction = 1.8\n"));
         assert!(
-            e.contains("`trial.friction_margin` is 0.25: it takes `run.friction` 1.8 to 2.25, outside 0.01 to 2"),
+            e.contains("`trial.friction_margin` is 0.25: it takes `run.friction` 1.8 to 2.25, outside 0.01 to 2 (set a smaller `trial.friction_margin`, or 0"),
             "{e}"
         );
+        assert!(Experiment::from_toml(&format!(
+            "{MINIMAL}[run]\nfriction = 1.8\n[trial]\nfriction_margin = 0.0\n"
+        ))
+        .is_ok());
     }
 
     #[test]

@@ -54,7 +54,7 @@ fn a_database_made_before_migration_0003_resumes_with_the_method_it_began_with()
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0003`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "12");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "13");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "6|1");
     // Both tables that name shortfalls take the one of migration 0012.
     assert_eq!(
@@ -115,15 +115,19 @@ fn a_database_made_before_migration_0004_resumes_with_uniform_infeasible_parents
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming experiment `pre-0004`"), "{err}");
-    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "12");
+    assert_eq!(sql(&db, "SELECT MAX(version) FROM _sqlx_migrations"), "13");
     assert_eq!(sql(&db, "SELECT generation, finished FROM runs"), "10|1");
     let definition = sql(&db, "SELECT definition FROM experiment");
     assert!(
         definition.contains("[search]\ninfeasible_tournament = 1\n"),
         "{definition}"
     );
+    // Made before the friction margin's floors and the shove were the defaults, it says
+    // it had none (0013), and the tilt limit it checked (0005).
     assert!(
-        definition.contains("[trial]\nupright_after_max_tilt_degrees = 180.0\n"),
+        definition.contains(
+            "[trial]\npush_speed = 0.0\nfriction_margin = 0.0\nupright_after_max_tilt_degrees = 180.0\n"
+        ),
         "{definition}"
     );
 

@@ -26,6 +26,14 @@ fn ctx() -> EvalContext {
     EvalContext::paper()
 }
 
+/// The paper's context without the friction margin's floors and the shove (on by default
+/// since docs/model.md section 6's gated run): the trial as runs made before it judged.
+fn ungated() -> EvalContext {
+    let mut c = ctx();
+    (c.limits.friction_margin, c.limits.push_speed) = (0.0, 0.0);
+    c
+}
+
 /// A design from `tests/fixtures`.
 fn fixture(name: &str) -> Genome {
     Genome::load(
@@ -661,10 +669,12 @@ fn feet_that_skate_past_the_limits_are_invalid_with_the_skating_reason() {
 
 #[test]
 fn a_design_must_beat_the_brief_speed_by_the_margin() {
+    // The finer step's confirmation alone: the floors and the shove (on by default) are
+    // other tests'.
     // MAX's own speed under STATIC; a brief asking a little less than it.
-    let base = evaluate(&ctx(), &max(), Scheme::Static, CandidateSeed::new(0, 0));
+    let base = evaluate(&ungated(), &max(), Scheme::Static, CandidateSeed::new(0, 0));
     let speed = base.stats().expect("MAX completes its trial").speed;
-    let mut c = ctx();
+    let mut c = ungated();
     // The margin alone (at 480 Hz MAX walks 2.5 % slower, which the confirmation would see).
     c.limits.confirm_substeps_factor = 1;
     c.brief.min_speed = speed / 1.02;
@@ -725,23 +735,25 @@ fn a_robot_fast_enough_for_the_brief_must_stay_up_the_longer_window() {
 
 #[test]
 fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
+    // The finer step's confirmation alone: the floors and the shove (on by default) are
+    // other tests'.
     // An elite of a 1000-generation STATIC run made without the confirmation: it walks the
     // trial and the 15 s after it at 240 Hz, and tips over at 480 Hz.
     let g = fixture("step_sensitive.json");
-    let mut unconfirmed = ctx();
+    let mut unconfirmed = ungated();
     unconfirmed.limits.confirm_substeps_factor = 1;
     let at_run_step = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert!(
         matches!(at_run_step, Outcome::Valid { .. }),
         "{at_run_step:?}"
     );
-    match evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+    match evaluate(&ungated(), &g, Scheme::Static, CandidateSeed::new(0, 0)) {
         Outcome::Invalid {
             reason: InvalidReason::StepSensitive { substeps, verdict },
             at_time,
             ..
         } => {
-            assert_eq!(substeps, 2 * ctx().settings.physics_substeps);
+            assert_eq!(substeps, 2 * ungated().settings.physics_substeps);
             assert!(verdict.starts_with("fell"), "{verdict}");
             assert!(at_time > 0.0 && at_time < 20.0, "{at_time}");
         }
@@ -750,7 +762,7 @@ fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
     // A design of the same run that holds at the finer step keeps the run's step's
     // figures, bit for bit.
     let g = fixture("walks_at_both_steps.json");
-    let confirmed = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    let confirmed = evaluate(&ungated(), &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert!(matches!(confirmed, Outcome::Valid { .. }), "{confirmed:?}");
     let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&confirmed), outcome_hash(&plain));
@@ -758,20 +770,23 @@ fn a_design_feasible_only_at_the_runs_step_is_step_sensitive() {
 
 #[test]
 fn an_es_child_that_cannot_beat_its_parent_is_not_confirmed() {
+    // The finer step's confirmation alone: the floors and the shove (on by default) are
+    // other tests'.
     // Feasible at the run's step, step-sensitive at the finer one. Against a parent it
     // does not beat, the confirmation could only lower it: skipped. Against one it beats,
     // it is confirmed, and found step-sensitive.
     let g = fixture("step_sensitive.json");
-    let plan = BodyPlan::new(&g.morphology, ctx().brief.payload);
+    let plan = BodyPlan::new(&g.morphology, ungated().brief.payload);
     let controller = Controller::static_default();
-    let mut unconfirmed = ctx();
+    let mut unconfirmed = ungated();
     unconfirmed.limits.confirm_substeps_factor = 1;
     let fitness = match evaluate_controller(&unconfirmed, &g, &plan, &controller, &mut ()) {
         Outcome::Valid { fitness, .. } => fitness,
         other => panic!("expected feasible at the run's step, got {other:?}"),
     };
-    let against =
-        |to_beat: Standing| evaluate_controller_against(&ctx(), &g, &plan, &controller, &to_beat);
+    let against = |to_beat: Standing| {
+        evaluate_controller_against(&ungated(), &g, &plan, &controller, &to_beat)
+    };
     assert!(against(Standing::Feasible { fitness }).is_none());
     match against(Standing::EndedEarly { at_time: 0.0 }) {
         Some(Outcome::Invalid {
@@ -877,10 +892,10 @@ fn a_design_feasible_on_one_floor_only_is_friction_sensitive() {
     // it meets the brief at friction 0.8 (and at the finer step) and tips over at 1.0.
     // With a margin of 0.25 it is invalid, naming that floor; a design of the same run that
     // walks on both floors keeps its figures, bit for bit.
-    let mut margin = ctx();
+    let mut margin = ungated();
     margin.limits.friction_margin = 0.25;
     let g = fixture("friction_sensitive.json");
-    let plain = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    let plain = evaluate(&ungated(), &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert!(matches!(plain, Outcome::Valid { .. }), "{plain:?}");
     match evaluate(&margin, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
         Outcome::Invalid {
@@ -897,7 +912,7 @@ fn a_design_feasible_on_one_floor_only_is_friction_sensitive() {
     let g = fixture("walks_on_every_floor.json");
     let kept = evaluate(&margin, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert!(matches!(kept, Outcome::Valid { .. }), "{kept:?}");
-    let plain = evaluate(&ctx(), &g, Scheme::Static, CandidateSeed::new(0, 0));
+    let plain = evaluate(&ungated(), &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&kept), outcome_hash(&plain));
 }
 
@@ -908,17 +923,16 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
     // quarter less grip, which meets the brief (1.0 m/s) but not the margin the run's own
     // trial asks (1.05 m/s). The confirming trial asks the brief: it is feasible, with the
     // run's trial's figures.
-    let mut robust = ctx();
-    robust.limits.friction_margin = 0.25;
-    robust.limits.push_speed = 0.3;
+    // The defaults since that run.
+    let robust = ctx();
+    assert_eq!(
+        (robust.limits.friction_margin, robust.limits.push_speed),
+        (0.25, 0.3)
+    );
     let g = fixture("meets_the_brief_on_the_slippery_floor.json");
     let kept = evaluate(&robust, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert!(matches!(kept, Outcome::Valid { .. }), "{kept:?}");
-    let mut unconfirmed = robust;
-    (
-        unconfirmed.limits.friction_margin,
-        unconfirmed.limits.push_speed,
-    ) = (0.0, 0.0);
+    let unconfirmed = ungated();
     let plain = evaluate(&unconfirmed, &g, Scheme::Static, CandidateSeed::new(0, 0));
     assert_eq!(outcome_hash(&kept), outcome_hash(&plain));
     // As the run's own trial, the slippery floor's trial is short of the margin.

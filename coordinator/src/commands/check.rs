@@ -78,8 +78,16 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         .upright_after_feasible_seconds
         .max(e.trial.upright_after_seconds);
     if feasible_window > 0.0 {
+        let shove = if e.trial.push_speed > 0.0 {
+            format!(
+                ", shoved sideways by {} m/s at its start",
+                e.trial.push_speed
+            )
+        } else {
+            String::new()
+        };
         outln!(
-            "after the trial the robot must stay up {} s more ({} s when it is fast enough for the brief), its body within {} degrees of level",
+            "after the trial the robot must stay up {} s more ({} s when it is fast enough for the brief{shove}), its body within {} degrees of level",
             e.trial.upright_after_seconds,
             feasible_window,
             e.trial
