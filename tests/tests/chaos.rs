@@ -382,7 +382,17 @@ fn a_run_through_coordinator_kills_and_worker_faults_ends_as_run_ends_it() {
             1 => {
                 workers[w].signal(libc::SIGTERM);
                 let status = workers[w].wait_exit(START);
-                assert!(status.success(), "{}", workers[w].log());
+                // A worker signalled before it armed its handler (just started, on a loaded
+                // machine) dies of the signal, as any Unix process does; it had not
+                // connected, so it held nothing. Once connected it stops cleanly.
+                let worker_log = workers[w].log();
+                let unarmed = std::os::unix::process::ExitStatusExt::signal(&status)
+                    == Some(libc::SIGTERM)
+                    && !worker_log.contains("connected to");
+                assert!(
+                    status.success() || unarmed,
+                    "{status:?}; its log:\n{worker_log}"
+                );
                 workers[w] = next_worker(&dir);
                 log.push(format!("worker {w} SIGTERM"));
             }
