@@ -388,6 +388,14 @@ pub enum Outcome {
         cell: CellIndex,
         /// The controller that achieved it (the ES result under ES).
         controller: Controller,
+        /// Feasible in the run's own trial and no fitter than the elite its cell held
+        /// when its generation was drawn (the assignment's `to_beat`): its confirming
+        /// trials (the finer step's, the floors') were not run, since they only keep or
+        /// lower a design's standing and it could not enter the library whatever they
+        /// said. It is never placed; `verify` simulates it again the same way. Absent from
+        /// stored JSON when false.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        outranked: bool,
     },
     /// Failed one or more constraints of the brief.
     Rejected {
@@ -530,6 +538,7 @@ mod tests {
             features: Features([2.5, 60.0, 3.0, 0.005, 0.0, 0.0]),
             cell: CellIndex(7),
             controller: Controller::static_default(),
+            outranked: false,
         }
     }
 
@@ -637,5 +646,20 @@ mod tests {
         for s in Shortfall::ALL {
             assert_eq!(Shortfall::named(s.name()), Some(s));
         }
+    }
+
+    #[test]
+    fn an_outranked_mark_is_stored_only_when_set_so_older_rows_read_and_hash_as_before() {
+        let plain = valid(1.5);
+        let text = serde_json::to_string(&plain).unwrap();
+        assert!(!text.contains("outranked"), "{text}");
+        assert_eq!(serde_json::from_str::<Outcome>(&text).unwrap(), plain);
+        let mut marked = plain;
+        if let Outcome::Valid { outranked, .. } = &mut marked {
+            *outranked = true;
+        }
+        let text = serde_json::to_string(&marked).unwrap();
+        assert!(text.contains("\"outranked\":true"), "{text}");
+        assert_eq!(serde_json::from_str::<Outcome>(&text).unwrap(), marked);
     }
 }

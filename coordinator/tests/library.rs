@@ -29,6 +29,7 @@ fn valid(fitness: f64, cell: u32) -> Outcome {
         features: Features([2.4, 60.0, 3.0, 0.005, 0.0, 0.0]),
         cell: CellIndex(cell),
         controller: Controller::static_default(),
+        outranked: false,
     }
 }
 
@@ -102,6 +103,7 @@ fn the_elite_keeps_the_controller_that_earned_its_fitness() {
         features,
         cell,
         controller: tuned,
+        outranked: false,
     };
     lib.apply(CandidateNumber(0), &genome(0), &outcome);
     assert_eq!(lib.get(CellIndex(3)).unwrap().genome.controller, tuned);
@@ -210,6 +212,7 @@ fn genome_scheme_offspring_evolve_their_controller() {
             features,
             cell,
             controller: parent.controller,
+            outranked: false,
         },
     );
     let rates = MutationRates::default();

@@ -9,7 +9,7 @@ use strider_common::EvalContext;
 use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
 use strider_common::{RunId, WorkerId};
 use strider_coordinator::qd::changes::Write;
-use strider_coordinator::qd::library::{InfeasibleLibrary, Library};
+use strider_coordinator::qd::library::{InfeasibleLibrary, Library, Placement};
 use strider_coordinator::qd::run::RunRecord;
 use strider_coordinator::qd::scheduler::{
     fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler,
@@ -50,6 +50,7 @@ fn outcome_of(e: &Experiment, a: &Assignment) -> Outcome {
         &a.genome,
         a.scheme,
         CandidateSeed::new(a.run_seed.0, a.key.number.0),
+        a.to_beat,
     )
 }
 
@@ -197,6 +198,98 @@ fn a_valid_outcome_in_a_cell_its_features_do_not_fall_in_is_refused_and_changes_
         s.accept(WorkerId(1), a.key, good, 0.0),
         Ok(Accepted::Stored)
     );
+}
+
+#[test]
+fn an_offspring_is_drawn_with_its_cells_elite_as_the_bar_and_outranked_only_below_it() {
+    let e = experiment();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    // The initial population has no bar: its library grows as it is applied.
+    let mut a = s.lease(WorkerId(0), now, 1).pop().unwrap();
+    while a.key.generation == 0 {
+        assert_eq!(a.to_beat, None);
+        let o = outcome_of(&e, &a);
+        s.accept(WorkerId(0), a.key, o, 0.0).unwrap();
+        a = s.lease(WorkerId(0), now, 1).pop().unwrap();
+    }
+    // Every offspring's bar is the elite its cell holds as the generation is drawn.
+    let mut held = vec![a];
+    held.extend(s.lease(WorkerId(0), now, 100));
+    let run_of = |a: &Assignment| s.run(a.key.run).unwrap().library.clone();
+    let ctx = EvalContext::of(&e);
+    let mut barred = None;
+    for a in held.iter().filter(|a| a.key.generation > 0) {
+        let cell = strider_coordinator::qd::scheduler::cell_of(&ctx, &a.genome);
+        let elite = run_of(a).get(cell).map(|x| x.fitness);
+        assert_eq!(a.to_beat, elite, "{:?}", a.key);
+        if barred.is_none() && elite.is_some() {
+            barred = Some(a.clone());
+        }
+    }
+    let a = barred.expect("an offspring drawn into an occupied cell");
+    let bar = a.to_beat.unwrap();
+    let outranked = |fitness: f64| {
+        let mut o = outcome_valid(&e, &a);
+        if let Outcome::Valid {
+            fitness: f,
+            outranked: m,
+            ..
+        } = &mut o
+        {
+            (*f, *m) = (fitness, true);
+        }
+        o
+    };
+    // Above the bar, its confirming trials were owed: refused, and still unanswered.
+    let above = bar * (1.0 + 1e-9);
+    assert_eq!(
+        s.accept(WorkerId(0), a.key, outranked(above), 0.0),
+        Err(Refusal::NotOutranked {
+            fitness: above,
+            to_beat: Some(bar),
+        })
+    );
+    assert!(!s.answered(a.key));
+    // At the bar it is taken, and never placed.
+    assert_eq!(
+        s.accept(WorkerId(0), a.key, outranked(bar), 0.0),
+        Ok(Accepted::Stored)
+    );
+    for b in held.iter().filter(|b| b.key != a.key) {
+        let o = outcome_of(&e, b);
+        s.accept(WorkerId(0), b.key, o, 0.0).unwrap();
+    }
+    let placed = s
+        .take_writes()
+        .into_iter()
+        .flat_map(|w| match w {
+            Write::Step(step) if step.run == a.key.run => step.candidates,
+            _ => Vec::new(),
+        })
+        .find(|c| c.number == a.key.number)
+        .expect("the generation was applied");
+    assert_eq!(placed.placement, Placement::Discarded);
+}
+
+/// A valid outcome for `a`'s design (made up, in its true cell).
+fn outcome_valid(e: &Experiment, a: &Assignment) -> Outcome {
+    match outcome_of(e, a) {
+        v @ Outcome::Valid { .. } => v,
+        _ => {
+            let ctx = EvalContext::of(e);
+            let cell = strider_coordinator::qd::scheduler::cell_of(&ctx, &a.genome);
+            let plan = strider_common::BodyPlan::new(&a.genome.morphology, ctx.brief.payload);
+            Outcome::Valid {
+                fitness: 1.0,
+                stats: strider_common::TrialStats::default(),
+                features: strider_common::Features::of(&a.genome.morphology, &plan),
+                cell,
+                controller: a.genome.controller,
+                outranked: false,
+            }
+        }
+    }
 }
 
 #[test]

@@ -170,12 +170,14 @@ impl From<&Outcome> for v1::Outcome {
                 stats,
                 features,
                 cell,
+                outranked,
                 ..
             } => v1::outcome::Kind::Valid(v1::Valid {
                 fitness: *fitness,
                 stats: Some(stats_to_wire(stats)),
                 features: features.0.to_vec(),
                 cell: cell.0,
+                outranked: *outranked,
             }),
             Outcome::Rejected {
                 violations, stats, ..
@@ -316,6 +318,7 @@ impl TryFrom<&v1::Outcome> for Outcome {
                     features: Features(features),
                     cell: CellIndex(v.cell),
                     controller,
+                    outranked: v.outranked,
                 })
             }
             v1::outcome::Kind::Rejected(r) => {

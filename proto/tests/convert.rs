@@ -47,6 +47,15 @@ fn outcomes() -> Vec<Outcome> {
             features: Features([2.3, 61.2, 3.0, 0.004, 0.1, -0.05]),
             cell: CellIndex(777),
             controller: c,
+            outranked: false,
+        },
+        Outcome::Valid {
+            fitness: 1.3,
+            stats: stats(),
+            features: Features([2.3, 61.2, 3.0, 0.004, 0.1, -0.05]),
+            cell: CellIndex(777),
+            controller: c,
+            outranked: true,
         },
         Outcome::Rejected {
             violations: vec![

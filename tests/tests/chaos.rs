@@ -285,6 +285,7 @@ fn nan_fitness(rt: &tokio::runtime::Runtime, url: &str) -> &'static str {
                 stats: Some(v1::TrialStats::default()),
                 features: vec![0.0; 6],
                 cell: 0,
+                outranked: false,
             })),
             controller: vec![0.0; 7],
         };

@@ -267,6 +267,7 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             stats: Some(v1::TrialStats::default()),
             features: vec![0.5; 200_000],
             cell: 0,
+            outranked: false,
         }));
         let s = refused_ending(big, b.id.unwrap(), huge).await;
         assert_eq!(s.code(), Code::ResourceExhausted);
@@ -284,6 +285,7 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             stats: Some(v1::TrialStats::default()),
             features: vec![0.0; 6],
             cell: 0,
+            outranked: false,
         }));
         for _ in 0..5 {
             let r = refused(&mut st, a.id.unwrap(), nan.clone()).await;
@@ -291,6 +293,27 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             assert!(r.reason.contains("fitness"), "{}", r.reason);
             assert_eq!(r.id, a.id);
         }
+
+        // Marked outranked, though it was drawn with no bar (an initial design): its
+        // confirming trials were owed. Its features and cell are its design's own, so
+        // that only the mark is wrong.
+        assert_eq!(a.to_beat, None);
+        let mut skipped = real_outcome(&a);
+        let genome = Genome::try_from(a.genome.as_ref().unwrap()).unwrap();
+        let e = strider_common::Experiment::load(&strider_tests::workspace_root().join(FIXTURE))
+            .unwrap();
+        let plan = strider_common::BodyPlan::new(&genome.morphology, e.brief.payload);
+        let features = strider_common::Features::of(&genome.morphology, &plan);
+        skipped.kind = Some(v1::outcome::Kind::Valid(v1::Valid {
+            fitness: 1.0,
+            stats: Some(v1::TrialStats::default()),
+            features: features.0.to_vec(),
+            cell: e.features.cell_of(&features).unwrap().0,
+            outranked: true,
+        }));
+        let r = refused(&mut st, a.id.unwrap(), skipped).await;
+        assert_eq!(r.code, "InvalidArgument");
+        assert!(r.reason.contains("outcome.valid.outranked"), "{}", r.reason);
 
         // A candidate nobody leased to this worker.
         let mut unknown = a.id.unwrap();

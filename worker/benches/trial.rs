@@ -78,6 +78,7 @@ fn batch(c: &mut Criterion) {
             genome: max(),
             scheme: Scheme::Static,
             seed: CandidateSeed::new(0, i),
+            to_beat: None,
         })
         .collect();
     let mut group = c.benchmark_group("batch_16_max_trials");

@@ -56,6 +56,7 @@ async fn main() -> anyhow::Result<()> {
                 run: RunSeed(r.get::<i64, _>(1) as u64),
                 candidate: CandidateNumber(r.get::<i64, _>(2) as u64),
             },
+            to_beat: None,
         });
     }
     let started = Instant::now();

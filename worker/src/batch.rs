@@ -2,7 +2,7 @@
 //! candidate order. Threads take the next candidate from a shared counter, so a long trial
 //! (ES, many legs) never holds up the others.
 
-use crate::evaluate::evaluate;
+use crate::evaluate::evaluate_to_enter;
 use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -17,12 +17,15 @@ pub struct Job {
     pub scheme: Scheme,
     /// Its seed (ES draws from it).
     pub seed: CandidateSeed,
+    /// The fitness of the elite its cell held when it was drawn, if any
+    /// ([`evaluate_to_enter`]).
+    pub to_beat: Option<f64>,
 }
 
 /// Evaluates every job on `threads` threads; `outcomes[i]` belongs to `jobs[i]`.
 pub fn evaluate_batch(ctx: &EvalContext, jobs: &[Job], threads: NonZeroUsize) -> Vec<Outcome> {
     map_batch(jobs, threads, |job| {
-        evaluate(ctx, &job.genome, job.scheme, job.seed)
+        evaluate_to_enter(ctx, &job.genome, job.scheme, job.seed, job.to_beat)
     })
 }
 

@@ -4,7 +4,7 @@
 //! heartbeats, and on shutdown give back what has not started and finish (or give back)
 //! the rest within a bound.
 
-use crate::evaluate::evaluate;
+use crate::evaluate::evaluate_to_enter;
 use crate::pool::{Answer, Evaluate, SimPool, Trial};
 use crate::synthetic::instant_outcome;
 use std::collections::{BTreeSet, VecDeque};
@@ -42,7 +42,7 @@ impl Evaluator {
     /// which evaluator it has.
     pub fn function(self) -> Evaluate {
         match self {
-            Evaluator::Simulation => evaluate,
+            Evaluator::Simulation => evaluate_to_enter,
             Evaluator::InstantSyntheticResults => instant_outcome,
         }
     }
@@ -253,6 +253,7 @@ struct Job {
     genome: Genome,
     scheme: Scheme,
     seed: CandidateSeed,
+    to_beat: Option<f64>,
 }
 
 fn job(a: v1::Assignment) -> Result<Job, String> {
@@ -264,7 +265,14 @@ fn job(a: v1::Assignment) -> Result<Job, String> {
         .and_then(|g| Genome::try_from(g).map_err(|_| "assignment with a malformed genome"))
         .map_err(String::from)?;
     let scheme = scheme_from_wire(a.scheme).map_err(|e| e.to_string())?;
+    let to_beat = match a.to_beat {
+        Some(f) if !(f.is_finite() && f > 0.0) => {
+            return Err(format!("to_beat {f} is not a positive fitness"))
+        }
+        other => other,
+    };
     Ok(Job {
+        to_beat,
         seed: CandidateSeed::new(a.run_seed, id.number),
         id,
         genome,
@@ -399,6 +407,7 @@ async fn session(
                     genome: j.genome,
                     scheme: j.scheme,
                     seed: j.seed,
+                    to_beat: j.to_beat,
                     core: permit,
                     answer: answer.clone(),
                 });

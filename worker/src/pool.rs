@@ -7,7 +7,7 @@
 //! migrations, colder caches and malloc arenas, and about 15 % more CPU per trial than the
 //! batch evaluator (BENCHMARKS.md, "`run` against the batch evaluator alone").
 
-use crate::evaluate::evaluate;
+use crate::evaluate::evaluate_to_enter;
 use std::num::NonZeroUsize;
 use std::time::Instant;
 use strider_common::rng::CandidateSeed;
@@ -25,6 +25,9 @@ pub struct Trial<K> {
     /// Its run's scheme.
     pub scheme: Scheme,
     pub seed: CandidateSeed,
+    /// The fitness of the elite its cell held when it was drawn, if any
+    /// ([`evaluate_to_enter`]).
+    pub to_beat: Option<f64>,
     /// The core it holds: released when the trial ends, before its answer is sent.
     pub core: OwnedSemaphorePermit,
     /// Where the answer goes; a closed receiver (a session that ended) drops it.
@@ -36,7 +39,7 @@ pub struct Trial<K> {
 pub type Answer<K> = (K, Result<Outcome, String>, f64);
 
 /// What a simulation thread runs for each trial.
-pub type Evaluate = fn(&EvalContext, &Genome, Scheme, CandidateSeed) -> Outcome;
+pub type Evaluate = fn(&EvalContext, &Genome, Scheme, CandidateSeed, Option<f64>) -> Outcome;
 
 /// The simulation threads. Dropping the pool lets them finish the trial in hand and end.
 pub struct SimPool<K> {
@@ -46,7 +49,7 @@ pub struct SimPool<K> {
 impl<K: Send + 'static> SimPool<K> {
     /// Starts `threads` threads named `strider-sim-N`.
     pub fn new(threads: NonZeroUsize) -> std::io::Result<Self> {
-        Self::with(threads, evaluate)
+        Self::with(threads, evaluate_to_enter)
     }
 
     /// Starts `threads` threads that run `eval` for each trial. A trial that panics is
@@ -61,14 +64,15 @@ impl<K: Send + 'static> SimPool<K> {
                 .spawn(move || {
                     for t in queue.iter() {
                         let start = Instant::now();
-                        let outcome =
-                            std::panic::catch_unwind(|| eval(&t.ctx, &t.genome, t.scheme, t.seed))
-                                .map_err(|p| {
-                                    p.downcast_ref::<&str>()
-                                        .map(|s| s.to_string())
-                                        .or_else(|| p.downcast_ref::<String>().cloned())
-                                        .unwrap_or_else(|| "a panic without a message".into())
-                                });
+                        let outcome = std::panic::catch_unwind(|| {
+                            eval(&t.ctx, &t.genome, t.scheme, t.seed, t.to_beat)
+                        })
+                        .map_err(|p| {
+                            p.downcast_ref::<&str>()
+                                .map(|s| s.to_string())
+                                .or_else(|| p.downcast_ref::<String>().cloned())
+                                .unwrap_or_else(|| "a panic without a message".into())
+                        });
                         let seconds = start.elapsed().as_secs_f64();
                         drop(t.core);
                         let _ = t.answer.send((t.key, outcome, seconds));
@@ -90,6 +94,7 @@ impl<K: Send + 'static> SimPool<K> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::evaluate::evaluate;
     use std::sync::Arc;
     use strider_common::rng::CandidateSeed;
     use tokio::sync::Semaphore;
@@ -112,6 +117,7 @@ mod tests {
                 genome: *g,
                 scheme: Scheme::Static,
                 seed: CandidateSeed::new(1, i as u64),
+                to_beat: None,
                 core,
                 answer: answer.clone(),
             });
@@ -138,7 +144,13 @@ mod tests {
 
     #[tokio::test]
     async fn a_trial_that_panics_is_answered_with_the_message_and_its_thread_goes_on() {
-        fn panics_on_odd(ctx: &EvalContext, g: &Genome, s: Scheme, seed: CandidateSeed) -> Outcome {
+        fn panics_on_odd(
+            ctx: &EvalContext,
+            g: &Genome,
+            s: Scheme,
+            seed: CandidateSeed,
+            _: Option<f64>,
+        ) -> Outcome {
             if seed.candidate.0 % 2 == 1 {
                 panic!(
                     "contact manifold overflow in candidate {}",
@@ -164,6 +176,7 @@ mod tests {
                 genome,
                 scheme: Scheme::Static,
                 seed: CandidateSeed::new(1, i),
+                to_beat: None,
                 core,
                 answer: answer.clone(),
             });

@@ -15,12 +15,14 @@ use strider_common::{
     BodyPlan, Fall, Features, Genome, InvalidReason, Outcome, Scheme, TrialStats,
 };
 
-/// A made-up outcome for `genome`, in microseconds.
+/// A made-up outcome for `genome`, in microseconds. `_to_beat` is unused: there is no
+/// confirming trial to skip.
 pub fn instant_outcome(
     ctx: &EvalContext,
     genome: &Genome,
     scheme: Scheme,
     seed: CandidateSeed,
+    _to_beat: Option<f64>,
 ) -> Outcome {
     let plan = BodyPlan::new(&genome.morphology, ctx.brief.payload);
     if let Some(o) = precheck_plan(ctx, genome, &plan, scheme) {
@@ -88,5 +90,6 @@ pub fn instant_outcome(
         features,
         cell,
         controller: genome.controller,
+        outranked: false,
     }
 }

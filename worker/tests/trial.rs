@@ -11,7 +11,7 @@ use strider_common::{
     BodyPlan, Controller, Fall, Genome, InvalidReason, Outcome, Scheme, Standing, StartPose,
 };
 use strider_worker::batch::{evaluate_batch, Job};
-use strider_worker::evaluate::evaluate;
+use strider_worker::evaluate::{evaluate, evaluate_to_enter};
 use strider_worker::sim::trial::{
     run_trial, run_trial_from, run_trial_with, Observer, Sample, TrialEnd, GRAVITY,
 };
@@ -222,6 +222,7 @@ fn a_trial_is_bit_identical_when_repeated_and_across_threads() {
                 genome: *g,
                 scheme,
                 seed: CandidateSeed::new(9, i as u64),
+                to_beat: None,
             })
         })
         .collect();
@@ -269,6 +270,7 @@ fn batch_returns_outcomes_in_job_order() {
                 genome: Genome::random(Scheme::Static, &mut seed.rng(Purpose::RandomGenome)),
                 scheme: Scheme::Static,
                 seed,
+                to_beat: None,
             }
         })
         .collect();
@@ -965,4 +967,51 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
         }
         other => panic!("expected a fall at the finer step, got {other:?}"),
     }
+}
+
+#[test]
+fn a_feasible_design_no_fitter_than_its_cells_elite_skips_its_confirming_trials() {
+    // The elite that meets the brief at friction 0.8 (and at the finer step) and tips
+    // over at 1.0: its confirming trials refuse it.
+    let g = fixture("friction_sensitive.json");
+    let seed = CandidateSeed::new(0, 0);
+    let mut c = ctx();
+    (c.limits.friction_margin, c.limits.push_speed) = (0.25, 0.0);
+    let mut bare = c;
+    (
+        bare.limits.confirm_substeps_factor,
+        bare.limits.friction_margin,
+    ) = (1, 0.0);
+    let at_step = evaluate(&bare, &g, Scheme::Static, seed);
+    let Outcome::Valid { fitness, .. } = at_step else {
+        panic!("feasible at the run's step: {at_step:?}")
+    };
+    // No fitter than its cell's elite: answered with the run's trial's figures, marked,
+    // the confirming trials not run.
+    let mut outranked = evaluate_to_enter(&c, &g, Scheme::Static, seed, Some(fitness));
+    let Outcome::Valid { outranked: m, .. } = &mut outranked else {
+        panic!("{outranked:?}")
+    };
+    assert!(*m);
+    *m = false;
+    assert_eq!(outranked, at_step);
+    // A hair fitter, or no elite: its confirming trials are owed, and they refuse it.
+    for to_beat in [Some(fitness * (1.0 - 1e-12)), None] {
+        match evaluate_to_enter(&c, &g, Scheme::Static, seed, to_beat) {
+            Outcome::Invalid {
+                reason: InvalidReason::FrictionSensitive { .. },
+                ..
+            } => {}
+            other => panic!("expected friction_sensitive with {to_beat:?}, got {other:?}"),
+        }
+    }
+    assert_eq!(
+        evaluate_to_enter(&c, &g, Scheme::Static, seed, None),
+        evaluate(&c, &g, Scheme::Static, seed)
+    );
+    // With no confirming trial to skip, nothing is marked.
+    assert_eq!(
+        evaluate_to_enter(&bare, &g, Scheme::Static, seed, Some(fitness)),
+        at_step
+    );
 }

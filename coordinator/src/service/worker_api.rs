@@ -263,6 +263,7 @@ impl Session {
                 genome: Some((&a.genome).into()),
                 scheme: scheme_to_wire(a.scheme).into(),
                 run_seed: a.run_seed.0,
+                to_beat: a.to_beat,
             });
             if self.tx.send(message(m)).await.is_err() {
                 return Err(CONNECTION_LOST.into());
@@ -342,7 +343,9 @@ impl Session {
         let accepted = self.shared.with(true, |s| {
             s.accept(id, key, outcome, r.seconds).map_err(|e| match e {
                 Refusal::NoSuchRun(_) | Refusal::Unknown(_) => Status::not_found(e.to_string()),
-                Refusal::CellMismatch { .. } => Status::invalid_argument(e.to_string()),
+                Refusal::CellMismatch { .. } | Refusal::NotOutranked { .. } => {
+                    Status::invalid_argument(e.to_string())
+                }
             })
         })?;
         self.held.remove(&key);

@@ -52,6 +52,10 @@ pub struct Assignment {
     pub scheme: Scheme,
     /// The run's seed.
     pub run_seed: RunSeed,
+    /// The fitness of the feasible elite its cell holds (none: an empty cell, the initial
+    /// population, ES): a result feasible at the run's step and no fitter may skip its
+    /// confirming trials and come back `outranked`.
+    pub to_beat: Option<f64>,
 }
 
 /// Why a result was refused.
@@ -63,6 +67,15 @@ pub enum Refusal {
     /// The run has no such candidate (never drawn).
     #[error("{0} does not exist")]
     Unknown(CandidateKey),
+    /// A valid outcome marked `outranked` that its cell's elite did not outrank when it
+    /// was drawn: its confirming trials were owed.
+    #[error("outcome.valid.outranked: fitness {fitness} is above the bar it was drawn with ({to_beat:?}), so its confirming trials were owed")]
+    NotOutranked {
+        /// The outcome's fitness.
+        fitness: f64,
+        /// The fitness of its cell's elite when it was drawn, if any.
+        to_beat: Option<f64>,
+    },
     /// A valid outcome whose cell is not the one its features fall in.
     #[error("outcome.valid.cell: {stated} does not match the features (cell {expected:?})")]
     CellMismatch {
@@ -98,6 +111,8 @@ enum State {
 struct Pending {
     generation: u32,
     genome: Genome,
+    /// Its cell's elite's fitness when it was drawn ([`Assignment::to_beat`]).
+    to_beat: Option<f64>,
     attempts: u32,
     /// Worker sessions already charged an attempt for it (each counts once).
     charged: Vec<WorkerId>,
@@ -291,6 +306,7 @@ impl Scheduler {
             genome: p.genome,
             scheme: r.record.spec.scheme,
             run_seed: r.record.spec.seed,
+            to_beat: p.to_beat,
         })
     }
 
@@ -322,6 +338,19 @@ impl Scheduler {
         let number = key.number.0;
         match r.step.get_mut(&number) {
             Some(p) if p.generation == key.generation => {
+                if let Outcome::Valid {
+                    fitness,
+                    outranked: true,
+                    ..
+                } = outcome
+                {
+                    if !p.to_beat.is_some_and(|elite| fitness <= elite) {
+                        return Err(Refusal::NotOutranked {
+                            fitness,
+                            to_beat: p.to_beat,
+                        });
+                    }
+                }
                 r.waiting.remove(&number);
                 p.state = State::Resolved(outcome.clone());
                 self.writes.push(Write::Resolved {

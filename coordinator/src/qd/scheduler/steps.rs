@@ -84,6 +84,15 @@ impl Scheduler {
                 precheck(&self.ctx, &genome, scheme).map_or(State::Waiting, State::Resolved),
             ),
         };
+        // The bar to enter the library: the elite its cell holds now, which stays until the
+        // generation's end (none in the initial population, whose library grows as it is
+        // applied). ES takes none (it confirms only a child that beats its parent).
+        let library = &self.runs[i].record.library;
+        let to_beat = if generation == 0 || scheme == Scheme::Es || library.is_empty() {
+            None
+        } else {
+            library.get(cell_of(&self.ctx, &genome)).map(|e| e.fitness)
+        };
         let r = &mut self.runs[i];
         if state == State::Waiting {
             r.waiting.insert(number);
@@ -93,6 +102,7 @@ impl Scheduler {
             Pending {
                 generation,
                 genome,
+                to_beat,
                 attempts,
                 charged: Vec::new(),
                 state,
