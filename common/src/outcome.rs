@@ -388,12 +388,13 @@ pub enum Outcome {
         cell: CellIndex,
         /// The controller that achieved it (the ES result under ES).
         controller: Controller,
-        /// Feasible in the run's own trial and no fitter than the elite its cell held
-        /// when its generation was drawn (the assignment's `to_beat`): its confirming
-        /// trials (the finer step's, the floors') were not run, since they only keep or
-        /// lower a design's standing and it could not enter the library whatever they
-        /// said. It is never placed; `verify` simulates it again the same way. Absent from
-        /// stored JSON when false.
+        /// Fast enough for the brief in the run's own trial and no fitter than the elite
+        /// its cell held when its generation was drawn (the assignment's `to_beat`): it
+        /// was answered at its trial's end, its stay-up window and confirming trials (the
+        /// finer step's, the floors') not run, since they only keep or lower a design's
+        /// standing and it could not enter the library whatever they said. It is never
+        /// placed; `verify` simulates it again the same way. Absent from stored JSON when
+        /// false.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         outranked: bool,
     },

@@ -18,10 +18,11 @@ pub fn evaluate(
 }
 
 /// [`evaluate`] for a candidate of a run whose library holds an elite of fitness `to_beat`
-/// in its cell: under STATIC and GENOME a design feasible at the run's step and no fitter
-/// is answered `outranked`, its confirming trials not run
-/// ([`evaluate_controller_to_enter`]). ES confirms only a child that beats its parent
-/// already, and its parent's standing steers the tuning, so it takes no bar from outside.
+/// in its cell: under STATIC and GENOME a design fast enough at the run's step and no
+/// fitter is answered `outranked` at its trial's end, its stay-up window and confirming
+/// trials not run ([`evaluate_controller_to_enter`]). ES judges a child in full only if it
+/// can beat its parent already, and its parent's standing steers the tuning, so it takes
+/// no bar from outside.
 pub fn evaluate_to_enter(
     ctx: &EvalContext,
     genome: &Genome,

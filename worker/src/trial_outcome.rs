@@ -1,7 +1,7 @@
 //! One morphology with one controller: the checks made before a trial, the trial, the
 //! speed check and the fitness; what every scheme is built from.
 
-use crate::sim::trial::{run_trial_from, Observer, TrialEnd};
+use crate::sim::trial::{run_trial_to_beat, Observer, TrialEnd};
 use strider_common::precheck::check_before_trial;
 use strider_common::{
     BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, Standing,
@@ -20,20 +20,20 @@ pub fn evaluate_controller(
     controller: &Controller,
     observer: &mut impl Observer,
 ) -> Outcome {
-    let outcome = judge_at_step(ctx, genome, plan, controller, observer);
+    let outcome = judge_at_step(ctx, genome, plan, controller, None, observer);
     confirm(ctx, genome, plan, controller, outcome)
 }
 
 /// [`evaluate_controller`] for a candidate that enters its run's library only if it is
 /// fitter than `to_beat`, the elite its cell held when its generation was drawn (the
 /// library changes only at a generation's end, and only to fitter elites, so no result of
-/// the same generation can lower that bar). Where the trial at the run's step is feasible
-/// and no fitter, it is answered `outranked` with that trial's figures, and its confirming
-/// trials are not run: they can only keep its standing or lower it, so it is discarded
-/// whatever they say. In a 1000-generation STATIC run, 685 of 1,198 feasible candidates
-/// were discarded, their confirmations 11.4 % of the search's simulation without the
-/// friction margin's floors (BENCHMARKS.md). With no confirming trial set, nothing is
-/// skipped and nothing marked.
+/// the same generation can lower that bar). Where its trial at the run's step is fast
+/// enough for the brief and no fitter, it is answered `outranked` with that trial's
+/// figures at the trial's end: neither its stay-up window nor its confirming trials are
+/// run, since they can only keep its standing or lower it, and it is discarded whatever
+/// they say. In a 1000-generation STATIC run, 685 of 1,198 feasible candidates were
+/// discarded, their confirmations 11.4 % of the search's simulation without the friction
+/// margin's floors, their windows about 4 % (BENCHMARKS.md).
 pub fn evaluate_controller_to_enter(
     ctx: &EvalContext,
     genome: &Genome,
@@ -41,25 +41,18 @@ pub fn evaluate_controller_to_enter(
     controller: &Controller,
     to_beat: Option<f64>,
 ) -> Outcome {
-    let mut outcome = judge_at_step(ctx, genome, plan, controller, &mut ());
-    if let Outcome::Valid {
-        fitness, outranked, ..
-    } = &mut outcome
-    {
-        if to_beat.is_some_and(|elite| *fitness <= elite) && !Confirmation::all(ctx).is_empty() {
-            *outranked = true;
-            return outcome;
-        }
-    }
+    let outcome = judge_at_step(ctx, genome, plan, controller, to_beat, &mut ());
     confirm(ctx, genome, plan, controller, outcome)
 }
 
 /// [`evaluate_controller`] for a trial that matters only if it ranks above `to_beat`
 /// (the ES's parent): `None` where the trial at the run's step is feasible and still does
-/// not, since the confirmation can only keep its standing or lower it. Saves the confirming
-/// trials (the finer step's, twice the steps of the first, and the floors' of `[trial]
-/// friction_margin`) for such a child: few, since feasible children are rare (5 of 65
-/// confirming trials in 60 ES runs on the 20 fittest elites of a STATIC run).
+/// not, since the stay-up window and the confirming trials can only keep its standing or
+/// lower it. Against a feasible parent, a child fast enough and no fitter ends at the
+/// trial's end (its window not run); any other child that does not beat its parent is
+/// judged as [`evaluate_controller`] would, without the confirming trials (the finer
+/// step's, twice the steps of the first, and the floors' of `[trial] friction_margin`).
+/// The strategy's path is that of judging every child in full.
 pub fn evaluate_controller_against(
     ctx: &EvalContext,
     genome: &Genome,
@@ -67,7 +60,11 @@ pub fn evaluate_controller_against(
     controller: &Controller,
     to_beat: &Standing,
 ) -> Option<Outcome> {
-    let outcome = judge_at_step(ctx, genome, plan, controller, &mut ());
+    let bar = match *to_beat {
+        Standing::Feasible { fitness } => Some(fitness),
+        _ => None,
+    };
+    let outcome = judge_at_step(ctx, genome, plan, controller, bar, &mut ());
     if matches!(outcome, Outcome::Valid { .. }) && !outcome.standing().beats(to_beat) {
         return None;
     }
@@ -85,11 +82,18 @@ fn confirm(
     controller: &Controller,
     outcome: Outcome,
 ) -> Outcome {
-    if !matches!(outcome, Outcome::Valid { .. }) {
+    if !matches!(
+        outcome,
+        Outcome::Valid {
+            outranked: false,
+            ..
+        }
+    ) {
         return outcome;
     }
     for check in Confirmation::all(ctx) {
-        let confirmation = judge_at_step(&check.context(ctx), genome, plan, controller, &mut ());
+        let confirmation =
+            judge_at_step(&check.context(ctx), genome, plan, controller, None, &mut ());
         if !matches!(confirmation, Outcome::Valid { .. }) {
             return Outcome::Invalid {
                 at_time: ended_at(&confirmation),
@@ -170,12 +174,15 @@ fn describe(outcome: &Outcome) -> String {
     }
 }
 
-/// [`evaluate_controller`] at the context's physics step only.
+/// [`evaluate_controller`] at the context's physics step only; a trial fast enough and no
+/// fitter than `to_beat` is answered `outranked` at the trial's end
+/// ([`run_trial_to_beat`]).
 fn judge_at_step(
     ctx: &EvalContext,
     genome: &Genome,
     plan: &BodyPlan,
     controller: &Controller,
+    to_beat: Option<f64>,
     observer: &mut impl Observer,
 ) -> Outcome {
     let pose = StartPose::new(plan, controller);
@@ -183,16 +190,18 @@ fn judge_at_step(
     if let Some(outcome) = check_before_trial(ctx, plan, &pose, controller) {
         return outcome;
     }
-    let stats = match run_trial_from(
+    let (stats, outranked) = match run_trial_to_beat(
         plan,
         &pose,
         controller,
         &ctx.settings,
         &ctx.limits,
         ctx.brief.required_speed(ctx.limits.speed_margin),
+        to_beat,
         observer,
     ) {
-        TrialEnd::Completed(stats) => stats,
+        TrialEnd::Completed(stats) => (stats, false),
+        TrialEnd::Outranked(stats) => (stats, true),
         TrialEnd::Stopped { reason, at_time } => {
             return Outcome::Invalid {
                 reason,
@@ -238,6 +247,6 @@ fn judge_at_step(
         features,
         cell,
         controller: *controller,
-        outranked: false,
+        outranked,
     }
 }

@@ -220,7 +220,8 @@ async fn simulate_again(
             genome: c.genome,
             scheme: spec.scheme,
             seed: CandidateSeed::new(spec.seed.0, c.number.0),
-            // An outranked design was answered without its confirming trials: simulated
+            // An outranked design was answered at its trial's end, without its stay-up
+            // window and confirming trials: simulated
             // again with the bar it was drawn with, or one as high (its own fitness; the
             // replay above checks that its cell's elite then was at least as fit).
             to_beat: match c.outcome {

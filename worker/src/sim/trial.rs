@@ -39,6 +39,11 @@ pub use strider_common::body_plan::BLOW_UP_SPEED;
 pub enum TrialEnd {
     /// It ran its full duration.
     Completed(TrialStats),
+    /// It met the speed that holds it to the long stay-up window and was no fitter than
+    /// the bar it was run against ([`run_trial_to_beat`]): ended at the trial's end, its
+    /// window (and shove) not run, since it could not count whatever they said. Its
+    /// figures are the trial's, those it would have had had it stayed up.
+    Outranked(TrialStats),
     /// It was stopped.
     Stopped {
         /// Why.
@@ -135,12 +140,39 @@ pub fn run_trial_from<O: Observer>(
     feasible_speed: f64,
     observer: &mut O,
 ) -> TrialEnd {
-    run_trial_with(
+    run_trial_to_beat(
+        plan,
+        start,
+        controller,
+        settings,
+        limits,
+        feasible_speed,
+        None,
+        observer,
+    )
+}
+
+/// [`run_trial_from`] for a design that matters only if it is fitter than `to_beat`
+/// (1 / cost of transport over the trial): one fast enough for the long window and no
+/// fitter ends at the trial's end, [`TrialEnd::Outranked`]. The window could only keep it
+/// feasible or make it fall, and neither makes it count. `None` runs the whole trial.
+#[allow(clippy::too_many_arguments)]
+pub fn run_trial_to_beat<O: Observer>(
+    plan: &BodyPlan,
+    start: &StartPose,
+    controller: &Controller,
+    settings: &RunSettings,
+    limits: &TrialLimits,
+    feasible_speed: f64,
+    to_beat: Option<f64>,
+    observer: &mut O,
+) -> TrialEnd {
+    trial(
         plan,
         start,
         settings,
         limits,
-        feasible_speed,
+        (feasible_speed, to_beat),
         |leg, t| leg_targets(controller, &plan.legs[leg], t),
         observer,
     )
@@ -157,6 +189,27 @@ pub fn run_trial_with<O: Observer>(
     settings: &RunSettings,
     limits: &TrialLimits,
     feasible_speed: f64,
+    targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
+    observer: &mut O,
+) -> TrialEnd {
+    trial(
+        plan,
+        start,
+        settings,
+        limits,
+        (feasible_speed, None),
+        targets_at,
+        observer,
+    )
+}
+
+/// The trial: [`run_trial_with`] with the bar of [`run_trial_to_beat`].
+fn trial<O: Observer>(
+    plan: &BodyPlan,
+    start: &StartPose,
+    settings: &RunSettings,
+    limits: &TrialLimits,
+    (feasible_speed, to_beat): (f64, Option<f64>),
     targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
     observer: &mut O,
 ) -> TrialEnd {
@@ -179,7 +232,8 @@ pub fn run_trial_with<O: Observer>(
             .upright_after_feasible_seconds
             .max(limits.upright_after_seconds),
     );
-    let mut at_end: Option<(Vector3<f64>, f64)> = None;
+    // The trial's figures, once it has run its length.
+    let mut at_end: Option<TrialStats> = None;
     let total_mass = plan.total_mass();
     let com_start = centre_of_mass(&rw);
     let falls = FallCheck::new(limits, start);
@@ -196,10 +250,30 @@ pub fn run_trial_with<O: Observer>(
     let mut step = 0;
     while step < steps + after {
         if step == steps {
-            let com = centre_of_mass(&rw);
-            at_end = Some((com, energy));
-            let speed = (com.x - com_start.x) / (steps as f64 * dt);
-            if speed >= feasible_speed {
+            // What the trial measured is judged at its end: a design that skates is
+            // refused here, before any window (which changes none of its figures).
+            let end = TrialFigures {
+                com_start,
+                com_end: centre_of_mass(&rw),
+                energy,
+                duration: steps as f64 * dt,
+                trial_seconds: settings.trial_seconds,
+                mass: total_mass,
+                gait: GaitStats {
+                    peak_torque_ratio,
+                    ..feet.stats()
+                },
+            }
+            .judge(limits);
+            let TrialEnd::Completed(stats) = end else {
+                return end;
+            };
+            at_end = Some(stats);
+            if stats.speed >= feasible_speed {
+                // `NaN <= bar` is false: such a trial runs on to its own verdict.
+                if to_beat.is_some_and(|bar| 1.0 / stats.cost_of_transport <= bar) {
+                    return TrialEnd::Outranked(stats);
+                }
                 after = long_after;
                 // Shoved only when held to the long window: a slower design's verdict
                 // stays what its walk alone earns it.
@@ -292,33 +366,74 @@ pub fn run_trial_with<O: Observer>(
         step += 1;
     }
 
-    let (com_end, energy) = at_end.unwrap_or_else(|| (centre_of_mass(&rw), energy));
-    if !com_end.iter().all(|c| c.is_finite()) {
-        return stopped(
-            InvalidReason::NonFinite {
-                what: "position".into(),
-            },
-            settings.trial_seconds,
-        );
+    if let Some(stats) = at_end {
+        return TrialEnd::Completed(stats);
     }
-    let distance = com_end.x - com_start.x;
-    let duration = steps as f64 * dt;
-    let gait = GaitStats {
-        peak_torque_ratio,
-        ..feet.stats()
-    };
-    if let Some(skate) = skating(&gait, distance, limits) {
-        return stopped(InvalidReason::Skating { skate }, duration);
-    }
-    TrialEnd::Completed(TrialStats {
-        distance,
+    // A trial of no length with no window after it.
+    TrialFigures {
+        com_start,
+        com_end: centre_of_mass(&rw),
         energy,
-        speed: distance / duration,
+        duration: steps as f64 * dt,
+        trial_seconds: settings.trial_seconds,
         mass: total_mass,
-        cost_of_transport: energy / (total_mass * GRAVITY * distance),
-        duration,
-        gait,
-    })
+        gait: GaitStats {
+            peak_torque_ratio,
+            ..feet.stats()
+        },
+    }
+    .judge(limits)
+}
+
+/// What a trial measured by its end (the stay-up window after it changes none of it).
+struct TrialFigures {
+    com_start: Vector3<f64>,
+    com_end: Vector3<f64>,
+    energy: f64,
+    /// The trial's length, s: its steps times the step.
+    duration: f64,
+    /// The trial's length as set, s: when a non-finite position stopped it.
+    trial_seconds: f64,
+    /// The robot's whole mass, kg.
+    mass: f64,
+    gait: GaitStats,
+}
+
+impl TrialFigures {
+    /// The trial's verdict from its figures alone: a non-finite position, skating, or its
+    /// stats.
+    fn judge(self, limits: &TrialLimits) -> TrialEnd {
+        let Self {
+            com_start,
+            com_end,
+            energy,
+            duration,
+            trial_seconds,
+            mass,
+            gait,
+        } = self;
+        if !com_end.iter().all(|c| c.is_finite()) {
+            return stopped(
+                InvalidReason::NonFinite {
+                    what: "position".into(),
+                },
+                trial_seconds,
+            );
+        }
+        let distance = com_end.x - com_start.x;
+        if let Some(skate) = skating(&gait, distance, limits) {
+            return stopped(InvalidReason::Skating { skate }, duration);
+        }
+        TrialEnd::Completed(TrialStats {
+            distance,
+            energy,
+            speed: distance / duration,
+            mass,
+            cost_of_transport: energy / (mass * GRAVITY * distance),
+            duration,
+            gait,
+        })
+    }
 }
 
 /// Changes the whole robot's sideways velocity (+z, to its right) by `speed`, m/s: the

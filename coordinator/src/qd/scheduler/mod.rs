@@ -53,8 +53,8 @@ pub struct Assignment {
     /// The run's seed.
     pub run_seed: RunSeed,
     /// The fitness of the feasible elite its cell holds (none: an empty cell, the initial
-    /// population, ES): a result feasible at the run's step and no fitter may skip its
-    /// confirming trials and come back `outranked`.
+    /// population, ES): a result fast enough at the run's step and no fitter may skip its
+    /// stay-up window and confirming trials and come back `outranked`.
     pub to_beat: Option<f64>,
 }
 
@@ -68,8 +68,8 @@ pub enum Refusal {
     #[error("{0} does not exist")]
     Unknown(CandidateKey),
     /// A valid outcome marked `outranked` that its cell's elite did not outrank when it
-    /// was drawn: its confirming trials were owed.
-    #[error("outcome.valid.outranked: fitness {fitness} is above the bar it was drawn with ({to_beat:?}), so its confirming trials were owed")]
+    /// was drawn: its stay-up window and confirming trials were owed.
+    #[error("outcome.valid.outranked: fitness {fitness} is above the bar it was drawn with ({to_beat:?}), so its stay-up window and confirming trials were owed")]
     NotOutranked {
         /// The outcome's fitness.
         fitness: f64,
