@@ -248,7 +248,9 @@ fn trial<O: Observer>(
     let mut down = vec![false; plan.legs.len()];
 
     let mut step = 0;
-    while step < steps + after {
+    let stats = loop {
+        // The trial's end is judged before the loop's exit test, so a trial of no length
+        // with no window is judged here too.
         if step == steps {
             // What the trial measured is judged at its end: a design that skates is
             // refused here, before any window (which changes none of its figures).
@@ -281,6 +283,9 @@ fn trial<O: Observer>(
                     shove(&mut rw, limits.push_speed);
                 }
             }
+        }
+        if step >= steps + after {
+            break at_end.expect("the trial's end is judged before its window ends");
         }
         let t = step as f64 * dt;
         if step % substeps == 0 {
@@ -364,25 +369,8 @@ fn trial<O: Observer>(
             return stopped(InvalidReason::Fell { fall }, time);
         }
         step += 1;
-    }
-
-    if let Some(stats) = at_end {
-        return TrialEnd::Completed(stats);
-    }
-    // A trial of no length with no window after it.
-    TrialFigures {
-        com_start,
-        com_end: centre_of_mass(&rw),
-        energy,
-        duration: steps as f64 * dt,
-        trial_seconds: settings.trial_seconds,
-        mass: total_mass,
-        gait: GaitStats {
-            peak_torque_ratio,
-            ..feet.stats()
-        },
-    }
-    .judge(limits)
+    };
+    TrialEnd::Completed(stats)
 }
 
 /// What a trial measured by its end (the stay-up window after it changes none of it).
