@@ -13,6 +13,7 @@ pub mod gait;
 pub mod genome;
 pub mod hull;
 pub mod ids;
+pub mod initial_designs;
 pub mod inspect;
 pub mod kinematics;
 pub mod mass;

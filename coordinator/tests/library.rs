@@ -2,6 +2,7 @@
 
 use strider_common::brief::{Constraint, Violation};
 use strider_common::ids::CandidateNumber;
+use strider_common::initial_designs::InitialDesigns;
 use strider_common::rng::CandidateSeed;
 use strider_common::{
     CellIndex, Controller, Features, Genome, InvalidReason, MutationRates, Outcome, Scheme,
@@ -11,7 +12,11 @@ use strider_coordinator::qd::evolution::{initial_candidate, offspring, Parents};
 use strider_coordinator::qd::library::{GenerationStats, Library, Placement};
 
 fn genome(i: u64) -> Genome {
-    initial_candidate(Scheme::Static, CandidateSeed::new(1, i))
+    initial_candidate(
+        Scheme::Static,
+        CandidateSeed::new(1, i),
+        &InitialDesigns::None,
+    )
 }
 
 fn valid(fitness: f64, cell: u32) -> Outcome {
@@ -192,7 +197,11 @@ fn offspring_are_reproducible_and_draw_parents_uniformly() {
 #[test]
 fn genome_scheme_offspring_evolve_their_controller() {
     let mut lib = Library::new();
-    let parent = initial_candidate(Scheme::Genome, CandidateSeed::new(2, 0));
+    let parent = initial_candidate(
+        Scheme::Genome,
+        CandidateSeed::new(2, 0),
+        &InitialDesigns::None,
+    );
     let Outcome::Valid {
         fitness,
         stats,

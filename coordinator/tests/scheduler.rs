@@ -6,7 +6,9 @@ use std::time::{Duration, Instant};
 use strider_common::ids::CandidateNumber;
 use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
-use strider_common::{CandidateKey, Experiment, InvalidReason, Outcome};
+use strider_common::{
+    CandidateKey, Controller, Experiment, Genome, InvalidReason, Outcome, Scheme,
+};
 use strider_common::{RunId, WorkerId};
 use strider_coordinator::qd::changes::Write;
 use strider_coordinator::qd::library::{InfeasibleLibrary, Library, Placement};
@@ -449,6 +451,56 @@ fn the_initial_population_is_the_first_designs_that_pass_the_checks_before_simul
         let r = s.run(RunId(i)).unwrap();
         assert_eq!(r.initial_passed, e.run.initial_population);
     }
+}
+
+#[test]
+fn an_experiments_initial_designs_are_its_first_initial_candidates_then_random_ones_follow() {
+    // MAX twice: candidates 0 and 1 of every run, with the STATIC gait under STATIC and
+    // MAX's own under GENOME; candidate 2 is random, as it would be without them.
+    let max_json =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../designs/max.json"))
+            .unwrap();
+    let max: Genome = serde_json::from_str(&max_json).unwrap();
+    let text = format!("initial_designs = \"max.json\"\n{EXPERIMENT}");
+    let e =
+        Experiment::from_toml_reading(&text, |_| Ok(format!("[{max_json}, {max_json}]"))).unwrap();
+    let (mut seeded, mut plain) = (fresh(&e, 3), fresh(&experiment(), 3));
+    let now = Instant::now();
+    // What each run hands out first (a random design that fails the checks before
+    // simulating is settled without a lease, so it is missing here).
+    let first = |s: &mut Scheduler| -> std::collections::BTreeMap<CandidateKey, Assignment> {
+        s.lease(WorkerId(0), now, 100)
+            .into_iter()
+            .map(|a| (a.key, a))
+            .collect()
+    };
+    let (seeded, plain) = (first(&mut seeded), first(&mut plain));
+    let mut random_alike = 0;
+    for run in 0..2 {
+        for number in 0..2 {
+            let key = CandidateKey {
+                run: RunId::from_index(run),
+                generation: 0,
+                number: CandidateNumber(number),
+            };
+            let a = &seeded[&key];
+            let controller = match a.scheme {
+                Scheme::Genome => max.controller,
+                _ => Controller::static_default(),
+            };
+            assert_eq!(a.genome.morphology, max.morphology, "{key:?}");
+            assert_eq!(a.genome.controller, controller, "{key:?}");
+        }
+    }
+    for (key, a) in &seeded {
+        if key.number.0 >= 2 {
+            if let Some(b) = plain.get(key) {
+                assert_eq!(a.genome, b.genome, "{key:?}");
+                random_alike += 1;
+            }
+        }
+    }
+    assert!(random_alike >= 2, "{random_alike}");
 }
 
 #[test]

@@ -72,10 +72,7 @@ pub(super) async fn open_or_create(
         None => {
             let e = match given {
                 Some(e) => e,
-                None if quick_by_default => {
-                    Experiment::from_toml(include_str!("../../../experiments/quick.toml"))
-                        .expect("the built-in quick experiment is valid")
-                }
+                None if quick_by_default => Experiment::quick(),
                 None => bail!(
                     "{} holds no experiment: pass --experiment FILE to start one",
                     path.display()

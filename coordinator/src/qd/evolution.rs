@@ -6,12 +6,16 @@
 
 use crate::qd::library::{InfeasibleLibrary, Library};
 use rand::Rng;
+use strider_common::initial_designs::InitialDesigns;
 use strider_common::rng::{CandidateSeed, Purpose};
 use strider_common::{Genome, MutationRates, Scheme};
 
-/// The random genome of candidate `seed` (initial population).
-pub fn initial_candidate(scheme: Scheme, seed: CandidateSeed) -> Genome {
-    Genome::random(scheme, &mut seed.rng(Purpose::RandomGenome))
+/// Initial-population candidate `seed`: the experiment's initial design of that number
+/// while there is one (docs/model.md section 12), else a random genome.
+pub fn initial_candidate(scheme: Scheme, seed: CandidateSeed, designs: &InitialDesigns) -> Genome {
+    designs
+        .candidate(scheme, seed.candidate.0)
+        .unwrap_or_else(|| Genome::random(scheme, &mut seed.rng(Purpose::RandomGenome)))
 }
 
 /// What parents are drawn from.

@@ -23,7 +23,11 @@ impl Scheduler {
         {
             let number = self.runs[i].frontier;
             self.runs[i].frontier += 1;
-            let genome = initial_candidate(scheme, self.seed(i, number));
+            let genome = initial_candidate(
+                scheme,
+                self.seed(i, number),
+                &self.experiment.initial_designs,
+            );
             self.add(i, number, 0, genome);
         }
     }

@@ -3,10 +3,12 @@
 
 use crate::brief::DesignBrief;
 use crate::features::{FeatureGrid, FeatureRange, FEATURE_NAMES};
+use crate::initial_designs::InitialDesigns;
 use crate::rng::RunSeed;
 use crate::variation::{MutationRates, Scheme};
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+
+mod files;
 
 /// The friction coefficient between a robot and the ground by default: a rubber foot on a
 /// firm surface.
@@ -257,6 +259,10 @@ pub struct Experiment {
     /// Mutation rates per group.
     #[serde(default)]
     pub mutation: MutationRates,
+    /// Designs drawn first in every run's initial population (a JSON file of genomes in
+    /// an experiment file; the genomes themselves once loaded).
+    #[serde(default, skip_serializing_if = "InitialDesigns::is_none")]
+    pub initial_designs: InitialDesigns,
 }
 
 /// One run of an experiment.
@@ -310,37 +316,6 @@ fn check_real(field: &str, v: f64, min: f64, max: f64) -> Result<(), ExperimentE
 }
 
 impl Experiment {
-    /// Parses and validates TOML text.
-    pub fn from_toml(text: &str) -> Result<Self, ExperimentError> {
-        let e: Experiment = toml::from_str(text).map_err(|e| ExperimentError::Parse {
-            path: "<text>".into(),
-            message: e.to_string(),
-        })?;
-        e.validate()?;
-        Ok(e)
-    }
-
-    /// Reads, parses and validates an experiment file.
-    pub fn load(path: &Path) -> Result<Self, ExperimentError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ExperimentError::Io {
-            path: path.display().to_string(),
-            source: e,
-        })?;
-        Self::from_toml(&text).map_err(|e| match e {
-            ExperimentError::Parse { message, .. } => ExperimentError::Parse {
-                path: path.display().to_string(),
-                message,
-            },
-            other => other,
-        })
-    }
-
-    /// The paper's full experiment (3 schemes x 20 repeats, 4000 generations).
-    pub fn paper() -> Self {
-        Self::from_toml(include_str!("../../experiments/paper.toml"))
-            .expect("the shipped paper experiment is valid")
-    }
-
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         if self.name.trim().is_empty() {
@@ -372,6 +347,16 @@ impl Experiment {
         }
         let r = &self.run;
         check_int("run.initial_population", r.initial_population, 1, 1_000_000)?;
+        let designs = self.initial_designs.designs().len();
+        if designs > r.initial_population as usize {
+            return Err(invalid(
+                "initial_designs",
+                format!(
+                    "has {designs} designs, more than run.initial_population ({})",
+                    r.initial_population
+                ),
+            ));
+        }
         check_int(
             "run.offspring_per_generation",
             r.offspring_per_generation,
@@ -731,5 +716,70 @@ mod tests {
             e.contains("`seeds` has 1 entries; it needs one per repeat (2)"),
             "{e}"
         );
+    }
+
+    /// MAX's genome file, as JSON text.
+    fn max_json() -> String {
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../designs/max.json"))
+            .unwrap()
+    }
+
+    #[test]
+    fn initial_designs_are_read_from_the_experiment_files_folder_and_stored_as_genomes() {
+        let max: crate::Genome = serde_json::from_str(&max_json()).unwrap();
+        let folder = std::env::temp_dir().join(format!("strider-initial-{}", std::process::id()));
+        std::fs::create_dir_all(&folder).unwrap();
+        std::fs::write(folder.join("seeds.json"), format!("[{0}, {0}]", max_json())).unwrap();
+        let file = folder.join("e.toml");
+        let text = MINIMAL.replace("seed = 5\n", "seed = 5\ninitial_designs = \"seeds.json\"\n");
+        std::fs::write(&file, &text).unwrap();
+        let e = Experiment::load(&file).unwrap();
+        assert_eq!(e.initial_designs.designs(), [max, max]);
+        // What the database stores holds the genomes: read back with no file to read.
+        let stored = toml::to_string(&e).unwrap();
+        let again = Experiment::from_toml_reading(&stored, |name| Err(format!("read {name}")));
+        assert_eq!(again.unwrap(), e);
+        // Read from the current directory when the experiment is text: here, not there.
+        let here = Experiment::from_toml(&text).unwrap_err().to_string();
+        assert!(
+            here.contains("`initial_designs` cannot read seeds.json"),
+            "{here}"
+        );
+        std::fs::remove_dir_all(&folder).unwrap();
+    }
+
+    #[test]
+    fn bad_initial_designs_are_refused_naming_the_file_and_the_problem() {
+        let with = |designs: String| {
+            let text =
+                format!("initial_designs = \"d.json\"\n{MINIMAL}[run]\ninitial_population = 2\n");
+            Experiment::from_toml_reading(&text, |_| Ok(designs))
+                .unwrap_err()
+                .to_string()
+        };
+        let e = with(format!("[{0}, {0}, {0}]", max_json()));
+        assert!(
+            e.contains("`initial_designs` has 3 designs, more than run.initial_population (2)"),
+            "{e}"
+        );
+        let e = with(max_json().replace("\"legs_per_side\": 3", "\"legs_per_side\": 9"));
+        assert!(e.contains("file d.json") && e.contains("JSON array"), "{e}");
+        let e = with(format!(
+            "[{}]",
+            max_json().replace("\"legs_per_side\": 3", "\"legs_per_side\": 9")
+        ));
+        assert!(
+            e.contains("file d.json") && e.contains("legs_per_side"),
+            "{e}"
+        );
+        let e = err(&format!("initial_designs = \"\"\n{MINIMAL}"));
+        assert!(e.contains("names no file"), "{e}");
+    }
+
+    #[test]
+    fn the_quick_experiment_starts_from_its_built_in_designs() {
+        let e = Experiment::quick();
+        assert_eq!(e.initial_designs.designs().len(), 10);
+        assert!(e.initial_designs.designs().len() <= e.run.initial_population as usize);
     }
 }
