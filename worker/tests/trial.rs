@@ -960,9 +960,17 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
     // Meeting the brief as written, a confirming trial holds the design to the long window
     // after it, shove included, as any trial fast enough for the brief: a candidate of the
     // same run walks 1.006 m/s at 480 Hz (refused for that before) and then tips past the
-    // window's 20 degrees.
+    // window's 20 degrees. (The floors, tried first, refuse it on the slippery one for
+    // skating: the finer step's confirmation alone here.)
     let g = fixture("meets_the_brief_at_the_finer_step_then_falls.json");
-    match evaluate(&robust, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+    let mut finer_step_only = robust;
+    finer_step_only.limits.friction_margin = 0.0;
+    match evaluate(
+        &finer_step_only,
+        &g,
+        Scheme::Static,
+        CandidateSeed::new(0, 0),
+    ) {
         Outcome::Invalid {
             reason: InvalidReason::StepSensitive { verdict, .. },
             at_time,
@@ -972,6 +980,19 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
             assert!(at_time > robust.settings.trial_seconds, "{at_time}");
         }
         other => panic!("expected a fall at the finer step, got {other:?}"),
+    }
+    // With the floors on (the defaults) they are tried first, the cheaper and likelier to
+    // refuse: it is refused there, as skating on the floor with less grip, the finer step
+    // not run.
+    match evaluate(&robust, &g, Scheme::Static, CandidateSeed::new(0, 0)) {
+        Outcome::Invalid {
+            reason: InvalidReason::FrictionSensitive { friction, verdict },
+            ..
+        } => {
+            assert!((friction - 0.6).abs() < 1e-12, "{friction}");
+            assert!(verdict.starts_with("skated"), "{verdict}");
+        }
+        other => panic!("expected a refusal on the slippery floor, got {other:?}"),
     }
 }
 
