@@ -162,7 +162,7 @@ fn check_lists_the_paper_runs() {
     assert!(text.contains("trials of MAX to their end in"), "{text}");
     // A design that meets the brief costs more: its confirming trials are said.
     assert!(
-        text.contains("a design that meets the brief is simulated again before it counts: at 2x the physics steps (2 trials' time), on floors of friction 0.6 and 1 (2 trials); up to 4 trials' time more"),
+        text.contains("a design that meets the brief is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time); up to 4 trials' time more"),
         "{text}"
     );
     assert!(

@@ -97,17 +97,18 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     }
     // Confirming trials: run only for a design that met the brief, so not in the bounds
     // below, which count one trial a candidate; said, with what they cost.
+    // In the order they are tried (the worker's `Confirmation::all`).
     let mut confirming = Vec::new();
     let factor = e.trial.confirm_substeps_factor;
-    if factor > 1 {
-        confirming.push(format!(
-            "at {factor}x the physics steps ({factor} trials' time)"
-        ));
-    }
     let floors = e.trial.confirming_floors(e.run.friction);
     if let Some([less, more]) = floors {
         confirming.push(format!(
-            "on floors of friction {less} and {more} (2 trials)"
+            "on floors of friction {more} and {less} (2 trials)"
+        ));
+    }
+    if factor > 1 {
+        confirming.push(format!(
+            "then at {factor}x the physics steps ({factor} trials' time)"
         ));
     }
     if !confirming.is_empty() {
