@@ -164,6 +164,67 @@ fn a_different_experiment_is_refused_and_more_generations_extend_a_finished_run(
 }
 
 #[test]
+fn a_run_started_from_initial_designs_goes_on_and_verifies_from_its_database_alone() {
+    // The tiny experiment cut to 2 generations, started from MAX (a file beside the
+    // experiment file): MAX is candidate 0 of both runs. With the file gone, the database
+    // alone resumes the experiment and verifies it (every run's candidates drawn again
+    // from the stored experiment, MAX's included, and its libraries rebuilt).
+    let dir = temp_dir("initial-designs");
+    let max = std::fs::read_to_string(workspace_root().join("designs/max.json")).unwrap();
+    std::fs::write(dir.join("seeds.json"), format!("[{max}]")).unwrap();
+    let text = std::fs::read_to_string(workspace_root().join(TINY))
+        .unwrap()
+        .replace(
+            "seed = 11\n",
+            "seed = 11\ninitial_designs = \"seeds.json\"\n",
+        )
+        .replace("generations = 12", "generations = 2");
+    let file = dir.join("seeded.toml");
+    std::fs::write(&file, text).unwrap();
+    let db = dir.join("s.db");
+    let db_arg = db.to_str().unwrap();
+    run_ok(
+        "strider-coordinator",
+        &["run", file.to_str().unwrap(), "--db", db_arg],
+    );
+    let max: serde_json::Value = serde_json::from_str(&max).unwrap();
+    let firsts = sqlite(
+        &db,
+        "SELECT genome FROM candidates WHERE generation = 0 AND number = 0 ORDER BY run_id",
+    );
+    let firsts: Vec<serde_json::Value> = firsts
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(firsts.len(), 2, "{firsts:?}");
+    for g in &firsts {
+        assert_eq!(g["morphology"], max["morphology"]);
+    }
+    std::fs::remove_file(dir.join("seeds.json")).unwrap();
+    let out = run_ok("strider-coordinator", &["run", "--db", db_arg]);
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("resuming experiment `tiny`"), "{said}");
+    run_ok("strider-coordinator", &["verify", "--db", db_arg, "--sample", "0"]);
+    // And the file the experiment names must be there to start one.
+    let out = run(
+        "strider-coordinator",
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--db",
+            dir.join("t.db").to_str().unwrap(),
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("`initial_designs` cannot read") && err.contains("seeds.json"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn export_csv_has_one_row_per_elite_with_every_parameter_and_the_best_exports_to_urdf() {
     let dir = temp_dir("csv");
     let db = dir.join("c.db");
