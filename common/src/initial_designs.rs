@@ -28,7 +28,7 @@ pub enum InitialDesigns {
 impl InitialDesigns {
     /// True when the initial population is random throughout.
     pub fn is_none(&self) -> bool {
-        matches!(self, Self::None) || matches!(self, Self::Designs(d) if d.is_empty())
+        matches!(self, Self::None)
     }
 
     /// The designs (none for a file not yet read).
@@ -50,8 +50,13 @@ impl InitialDesigns {
         };
         let text = read(name)?;
         let designs: Vec<Genome> = serde_json::from_str(&text).map_err(|e| {
-            format!("file {name}: {e} (it must be a JSON array of genomes, as `export --genome` writes one)")
+            format!("file {name}: {e} (it must be a JSON array of genomes, each as `export --elite RUN:CELL --genome FILE` writes one)")
         })?;
+        if designs.is_empty() {
+            return Err(format!(
+                "file {name} holds no design: leave `initial_designs` out for a random initial population"
+            ));
+        }
         *self = Self::Designs(designs);
         Ok(())
     }
@@ -107,6 +112,11 @@ impl<'de> Visitor<'de> for InitialDesignsVisitor {
         let mut designs = Vec::new();
         while let Some(g) = seq.next_element::<Genome>()? {
             designs.push(g);
+        }
+        if designs.is_empty() {
+            return Err(de::Error::custom(
+                "is an empty list: leave it out for a random initial population",
+            ));
         }
         Ok(InitialDesigns::Designs(designs))
     }

@@ -204,7 +204,10 @@ fn a_run_started_from_initial_designs_goes_on_and_verifies_from_its_database_alo
     let out = run_ok("strider-coordinator", &["run", "--db", db_arg]);
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(said.contains("resuming experiment `tiny`"), "{said}");
-    run_ok("strider-coordinator", &["verify", "--db", db_arg, "--sample", "0"]);
+    run_ok(
+        "strider-coordinator",
+        &["verify", "--db", db_arg, "--sample", "0"],
+    );
     // And the file the experiment names must be there to start one.
     let out = run(
         "strider-coordinator",

@@ -202,10 +202,24 @@ fn check_says_what_the_confirming_floors_cost() {
     let text = String::from_utf8(out.stdout).unwrap();
     // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
     assert!(
-        text.contains("simulated again before it counts: on floors of friction 0.6 and 1 (2 trials); up to 2 trials' time more"),
+        text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials); up to 2 trials' time more"),
         "{text}"
     );
     assert!(!text.contains("physics steps ("), "{text}");
+    // The finer step alone.
+    let path = temp_file(
+        "finer.toml",
+        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nfriction_margin = 0.0\n",
+    );
+    let out = run(
+        "strider-coordinator",
+        &["check", path.to_str().unwrap(), "--no-calibration"],
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time); up to 2 trials' time more"),
+        "{text}"
+    );
 }
 
 #[test]

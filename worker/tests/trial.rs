@@ -1097,3 +1097,41 @@ fn a_trial_no_fitter_than_its_bar_ends_at_the_trials_end_with_the_same_figures()
     };
     assert_eq!(slow(Some(f64::INFINITY)), slow(None));
 }
+
+#[test]
+fn with_no_window_for_slow_designs_a_fast_one_still_gets_its_long_window() {
+    // `upright_after_seconds = 0`: MAX taken as too slow for the brief ends with its trial;
+    // taken as fast enough, it is held to the 15-s window all the same; with both windows
+    // at 0 it is the paper's bare trial. The trial's figures are the same in all three.
+    let c = ctx();
+    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
+    let controller = Controller::static_default();
+    let start = StartPose::new(&plan, &controller);
+    let run = |feasible_after: f64, feasible_speed: f64| {
+        let mut limits = c.limits;
+        limits.upright_after_seconds = 0.0;
+        limits.upright_after_feasible_seconds = feasible_after;
+        let mut rec = Recorder::default();
+        let end = run_trial_from(
+            &plan,
+            &start,
+            &controller,
+            &c.settings,
+            &limits,
+            feasible_speed,
+            &mut rec,
+        );
+        (end, rec.time.len())
+    };
+    let trial_steps = (c.settings.trial_seconds * c.settings.control_hz).round() as usize;
+    let window = (c.limits.upright_after_feasible_seconds * c.settings.control_hz).round() as usize;
+    let (slow, slow_steps) = run(c.limits.upright_after_feasible_seconds, f64::INFINITY);
+    let (fast, fast_steps) = run(c.limits.upright_after_feasible_seconds, 0.0);
+    let (bare, bare_steps) = run(0.0, 0.0);
+    assert_eq!(slow_steps, trial_steps);
+    assert_eq!(fast_steps, trial_steps + window);
+    assert_eq!(bare_steps, trial_steps);
+    assert!(matches!(slow, TrialEnd::Completed(_)), "{slow:?}");
+    assert_eq!(slow, fast);
+    assert_eq!(fast, bare);
+}

@@ -117,9 +117,9 @@ pub struct TrialLimits {
     /// trials (`confirm_substeps_factor`, `friction_margin`) ask the brief as written:
     /// they are the check of that error, not a second trial to pass with the margin.
     pub speed_margin: f64,
-    /// A design feasible at the run's physics step is simulated again at a step this many
-    /// times finer (`physics_substeps` times this) and is feasible only if it is feasible
-    /// there too; otherwise it is invalid, `step_sensitive`. 1 turns the confirmation off.
+    /// A design feasible at the run's physics step (and on the floors of
+    /// `friction_margin`, tried first) is simulated again at a step this many times finer
+    /// (`physics_substeps` times this) and is feasible only if it is feasible there too; otherwise it is invalid, `step_sensitive`. 1 turns the confirmation off.
     /// Why: a balance that holds at one step and not at a finer one is the integrator's,
     /// not the robot's (docs/model.md section 6, "Confirmed at a finer step").
     pub confirm_substeps_factor: u32,
@@ -129,8 +129,8 @@ pub struct TrialLimits {
     /// (docs/model.md section 6); distance and energy count over the trial only, so only
     /// the verdict can change.
     pub push_speed: f64,
-    /// A design feasible at the run's step (and at the confirming step) is simulated
-    /// again on floors with this fraction less and more grip (`[run] friction` times 1 -
+    /// A design feasible at the run's step is simulated again (before the finer step of
+    /// `confirm_substeps_factor`) on floors with this fraction less and more grip (`[run] friction` times 1 -
     /// this and 1 + this), and is feasible only if it is feasible on both; otherwise it
     /// is invalid, `friction_sensitive`. 0 turns it off. Why: a walk that holds on one
     /// floor only is one a second engine's contacts, or a real floor, tip over
@@ -347,6 +347,12 @@ impl Experiment {
         }
         let r = &self.run;
         check_int("run.initial_population", r.initial_population, 1, 1_000_000)?;
+        if let InitialDesigns::File(name) = &self.initial_designs {
+            return Err(invalid(
+                "initial_designs",
+                format!("names {name}, which was not read: load the experiment from its file"),
+            ));
+        }
         let designs = self.initial_designs.designs().len();
         if designs > r.initial_population as usize {
             return Err(invalid(
@@ -763,7 +769,10 @@ mod tests {
             "{e}"
         );
         let e = with(max_json().replace("\"legs_per_side\": 3", "\"legs_per_side\": 9"));
-        assert!(e.contains("file d.json") && e.contains("JSON array"), "{e}");
+        assert!(
+            e.contains("file d.json") && e.contains("expected a sequence"),
+            "{e}"
+        );
         let e = with(format!(
             "[{}]",
             max_json().replace("\"legs_per_side\": 3", "\"legs_per_side\": 9")
@@ -774,12 +783,21 @@ mod tests {
         );
         let e = err(&format!("initial_designs = \"\"\n{MINIMAL}"));
         assert!(e.contains("names no file"), "{e}");
+        let e = with("[]".into());
+        assert!(e.contains("file d.json holds no design"), "{e}");
+        let e = err(&format!("initial_designs = []\n{MINIMAL}"));
+        assert!(e.contains("is an empty list"), "{e}");
+        // An experiment made in code with a file it never read is refused, not run from
+        // random designs.
+        let mut unread = Experiment::from_toml(MINIMAL).unwrap();
+        unread.initial_designs = InitialDesigns::File("d.json".into());
+        let e = unread.validate().unwrap_err().to_string();
+        assert!(e.contains("names d.json, which was not read"), "{e}");
     }
 
     #[test]
     fn the_quick_experiment_starts_from_its_built_in_designs() {
         let e = Experiment::quick();
         assert_eq!(e.initial_designs.designs().len(), 10);
-        assert!(e.initial_designs.designs().len() <= e.run.initial_population as usize);
     }
 }

@@ -107,8 +107,9 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         ));
     }
     if factor > 1 {
+        let then = if confirming.is_empty() { "" } else { "then " };
         confirming.push(format!(
-            "then at {factor}x the physics steps ({factor} trials' time)"
+            "{then}at {factor}x the physics steps ({factor} trials' time)"
         ));
     }
     if !confirming.is_empty() {

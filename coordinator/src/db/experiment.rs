@@ -37,9 +37,29 @@ fn diff(a: &toml::Value, b: &toml::Value, path: String) -> Option<String> {
                 }
             })
         }
+        // Arrays of tables (the initial designs) are told entry by entry: whole, they
+        // would fill a screen.
+        (toml::Value::Array(xa), toml::Value::Array(xb)) if is_tables(xa) || is_tables(xb) => {
+            if xa.len() != xb.len() {
+                return Some(format!(
+                    "{path}: {} entries in the database, {} given",
+                    xa.len(),
+                    xb.len()
+                ));
+            }
+            xa.iter()
+                .zip(xb)
+                .enumerate()
+                .find_map(|(i, (x, y))| diff(x, y, format!("{path}[{i}]")))
+        }
         _ if a == b => None,
         _ => Some(format!("{path}: {a} in the database, {b} given")),
     }
+}
+
+/// Whether an array holds tables (TOML's `[[name]]`).
+fn is_tables(values: &[toml::Value]) -> bool {
+    values.first().is_some_and(toml::Value::is_table)
 }
 
 /// Whether `given` is `stored` with more generations and nothing else changed: an
@@ -62,7 +82,11 @@ pub fn extends(stored: &Experiment, given: &Experiment) -> Result<bool, String> 
 }
 
 fn show(v: Option<&toml::Value>) -> String {
-    v.map_or_else(|| "absent".into(), |v| v.to_string())
+    match v {
+        None => "absent".into(),
+        Some(toml::Value::Array(a)) if is_tables(a) => format!("{} entries", a.len()),
+        Some(v) => v.to_string(),
+    }
 }
 
 /// The checksum of a read `experiment` row, from its name, definition, build and
@@ -162,5 +186,44 @@ impl Db {
         }
         tx.commit().await?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use strider_common::initial_designs::InitialDesigns;
+
+    #[test]
+    fn differing_initial_designs_are_told_by_entry_not_whole() {
+        let max: strider_common::Genome = serde_json::from_str(
+            &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../designs/max.json"))
+                .unwrap(),
+        )
+        .unwrap();
+        let plain =
+            Experiment::from_toml("name = \"d\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n")
+                .unwrap();
+        let with = |designs: Vec<strider_common::Genome>| Experiment {
+            initial_designs: InitialDesigns::Designs(designs),
+            ..plain.clone()
+        };
+        let mut other = serde_json::to_value(max).unwrap();
+        other["morphology"]["legs_per_side"] = serde_json::json!(2);
+        let other: strider_common::Genome = serde_json::from_value(other).unwrap();
+        let a = with(vec![max, max]);
+        assert_eq!(first_difference(&a, &a), None);
+        let d = first_difference(&a, &with(vec![max, other])).unwrap();
+        assert_eq!(
+            d,
+            "initial_designs[1].morphology.legs_per_side: 3 in the database, 2 given"
+        );
+        let d = first_difference(&a, &with(vec![max])).unwrap();
+        assert_eq!(d, "initial_designs: 2 entries in the database, 1 given");
+        let d = first_difference(&plain, &a).unwrap();
+        assert_eq!(
+            d,
+            "initial_designs: absent in the database, 2 entries given"
+        );
     }
 }

@@ -122,6 +122,7 @@ pub struct Shared {
     started: Instant,
     /// The recent pace, for the time left.
     pace: Mutex<pace::Pace>,
+    /// The experiment as workers get it (without its initial designs).
     experiment_toml: String,
     db: crate::db::Db,
 }

@@ -16,6 +16,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, AtomicU64};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use strider_common::initial_designs::InitialDesigns;
 use strider_common::Experiment;
 use strider_process::duration_words;
 use strider_process::terminal::Bar;
@@ -256,7 +257,12 @@ async fn start_scheduler(
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
         pace: Mutex::new(Default::default()),
-        experiment_toml: canonical_toml(experiment),
+        // What a worker needs to judge a candidate: not the initial designs (genomes
+        // arrive with each candidate), which could pass a message's size limit.
+        experiment_toml: canonical_toml(&Experiment {
+            initial_designs: InitialDesigns::None,
+            ..experiment.clone()
+        }),
         db,
     });
     // Store what opening the steps wrote (draws settled without a trial, new generations).

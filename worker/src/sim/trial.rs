@@ -249,8 +249,10 @@ fn trial<O: Observer>(
 
     let mut step = 0;
     let stats = loop {
-        // The trial's end is judged before the loop's exit test, so a trial of no length
-        // with no window is judged here too.
+        // The trial's end is judged before the loop's exit test, so a trial with no window
+        // after it is judged here too, and a design fast enough for the brief gets its long
+        // window even when the others get none (`upright_after_seconds = 0`; before d65b9ab
+        // such a trial ended with no window at all).
         if step == steps {
             // What the trial measured is judged at its end: a design that skates is
             // refused here, before any window (which changes none of its figures).
