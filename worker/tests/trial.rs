@@ -1135,3 +1135,46 @@ fn with_no_window_for_slow_designs_a_fast_one_still_gets_its_long_window() {
     assert_eq!(slow, fast);
     assert_eq!(fast, bare);
 }
+
+#[test]
+fn the_floor_with_more_grip_is_tried_before_the_one_with_less() {
+    // A candidate of a small STATIC run at a brief of 0.05 m/s: feasible at the run's
+    // floor (0.8), it tips past the window's 20 degrees on the floor with more grip (1.0)
+    // and past 45 in its trial on the one with less (0.6). The grippier floor is tried
+    // first, so that is the refusal it gets.
+    let mut c = ctx();
+    c.brief.min_speed = 0.05;
+    let g = fixture("fails_on_both_floors.json");
+    let seed = CandidateSeed::new(0, 0);
+    let on = |friction: f64| {
+        let mut floor = c;
+        (
+            floor.limits.friction_margin,
+            floor.limits.confirm_substeps_factor,
+        ) = (0.0, 1);
+        floor.limits.speed_margin = 0.0;
+        floor.settings.friction = friction;
+        evaluate(&floor, &g, Scheme::Static, seed)
+    };
+    assert!(matches!(on(0.8), Outcome::Valid { .. }), "{:?}", on(0.8));
+    for friction in [0.6, 1.0] {
+        let there = on(friction);
+        assert!(
+            matches!(
+                there,
+                Outcome::Invalid {
+                    reason: InvalidReason::Fell { .. },
+                    ..
+                }
+            ),
+            "at {friction}: {there:?}"
+        );
+    }
+    match evaluate(&c, &g, Scheme::Static, seed) {
+        Outcome::Invalid {
+            reason: InvalidReason::FrictionSensitive { friction, .. },
+            ..
+        } => assert!((friction - 1.0).abs() < 1e-12, "{friction}"),
+        other => panic!("expected a refusal on the floor with more grip, got {other:?}"),
+    }
+}
