@@ -125,6 +125,30 @@ fn eval_refuses_an_unknown_scheme() {
 }
 
 #[test]
+fn eval_refuses_a_picture_not_named_svg_before_simulating() {
+    // The pictures are SVG: a `.png` name would give a file no viewer opens as PNG.
+    let dir = strider_tests::temp_dir("eval-picture-name");
+    let png = dir.join("film.png");
+    let out = run(
+        "strider-worker",
+        &[
+            "eval",
+            "designs/max.json",
+            "--filmstrip",
+            png.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--filmstrip writes SVG: name the file .svg") && err.contains("film.png"),
+        "{err}"
+    );
+    assert!(!png.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn eval_writes_every_file_asked_for_or_none() {
     let dir = strider_tests::temp_dir("eval-all-or-none");
     let (trace, svg) = (dir.join("t.csv"), dir.join("max.svg"));

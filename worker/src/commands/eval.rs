@@ -61,6 +61,23 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
         replay,
         filmstrip,
     } = args;
+    // Pictures are SVG whatever their name: one named `.png` would not open as one.
+    for (flag, path) in [
+        ("--svg", &svg),
+        ("--replay", &replay),
+        ("--filmstrip", &filmstrip),
+    ] {
+        if let Some(path) = path {
+            let is_svg = path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+            anyhow::ensure!(
+                is_svg,
+                "{flag} writes SVG: name the file .svg ({} given)",
+                path.display()
+            );
+        }
+    }
     let g = Genome::load(&genome)?;
     let ctx = context(experiment.as_deref())?;
     let cand = CandidateSeed::new(seed, 0);
