@@ -13,8 +13,7 @@ use strider_common::{
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::{evaluate, evaluate_to_enter};
 use strider_worker::sim::trial::{
-    run_trial, run_trial_from, run_trial_to_beat, run_trial_with, Observer, Sample, TrialEnd,
-    GRAVITY,
+    run_trial, run_trial_to_beat, run_trial_with, Observer, Sample, TrialEnd, GRAVITY,
 };
 use strider_worker::sim::world::RobotWorld;
 use strider_worker::trial_outcome::{evaluate_controller, evaluate_controller_against};
@@ -562,6 +561,32 @@ fn max_static(
     )
 }
 
+/// MAX's STATIC trial from its start pose under `limits`, recorded: held to the long window
+/// when its speed reaches `feasible_speed`, and ended at the trial's end when it is no
+/// fitter than `to_beat` ([`run_trial_to_beat`]).
+fn max_trial(
+    limits: &TrialLimits,
+    feasible_speed: f64,
+    to_beat: Option<f64>,
+) -> (TrialEnd, Recorder) {
+    let c = ctx();
+    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
+    let controller = Controller::static_default();
+    let start = StartPose::new(&plan, &controller);
+    let mut rec = Recorder::default();
+    let end = run_trial_to_beat(
+        &plan,
+        &start,
+        &controller,
+        &c.settings,
+        limits,
+        feasible_speed,
+        to_beat,
+        &mut rec,
+    );
+    (end, rec)
+}
+
 #[test]
 fn no_joint_receives_more_than_its_motor_limit_on_any_step() {
     // MAX at full strength and with weaker motors: the weak ones spend much of the stride
@@ -844,23 +869,10 @@ fn a_shove_at_the_trials_end_moves_the_robot_sideways_and_leaves_the_trials_figu
     // energy (over the trial) are the unshoved ones. Too slow for the brief, it is not
     // shoved at all.
     let c = ctx();
-    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
-    let controller = Controller::static_default();
-    let start = StartPose::new(&plan, &controller);
     let run = |push: f64, feasible_speed: f64| {
         let mut limits = c.limits;
         limits.push_speed = push;
-        let mut rec = Recorder::default();
-        let end = run_trial_from(
-            &plan,
-            &start,
-            &controller,
-            &c.settings,
-            &limits,
-            feasible_speed,
-            &mut rec,
-        );
-        (end, rec)
+        max_trial(&limits, feasible_speed, None)
     };
     let trial = |push: f64| run(push, 0.0);
     let (slow, slow_rec) = run(0.5, f64::INFINITY);
@@ -1053,21 +1065,8 @@ fn a_trial_no_fitter_than_its_bar_ends_at_the_trials_end_with_the_same_figures()
     // the shove are not run, and its figures are the whole trial's, bit for bit. A hair
     // below its fitness, or with no bar, the whole trial runs.
     let c = ctx();
-    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
-    let controller = Controller::static_default();
-    let start = StartPose::new(&plan, &controller);
     let run = |to_beat: Option<f64>| {
-        let mut rec = Recorder::default();
-        let end = run_trial_to_beat(
-            &plan,
-            &start,
-            &controller,
-            &c.settings,
-            &c.limits,
-            0.0,
-            to_beat,
-            &mut rec,
-        );
+        let (end, rec) = max_trial(&c.limits, 0.0, to_beat);
         (end, rec.time.len())
     };
     let (whole, whole_steps) = run(None);
@@ -1083,18 +1082,7 @@ fn a_trial_no_fitter_than_its_bar_ends_at_the_trials_end_with_the_same_figures()
     assert_eq!(at_bar_steps, trial_steps, "ended at the trial's end");
     assert_eq!(run(Some(fitness * (1.0 - 1e-12))).0, whole);
     // Too slow for the long window: the bar changes nothing.
-    let slow = |to_beat| {
-        run_trial_to_beat(
-            &plan,
-            &start,
-            &controller,
-            &c.settings,
-            &c.limits,
-            f64::INFINITY,
-            to_beat,
-            &mut (),
-        )
-    };
+    let slow = |to_beat| max_trial(&c.limits, f64::INFINITY, to_beat).0;
     assert_eq!(slow(Some(f64::INFINITY)), slow(None));
 }
 
@@ -1104,23 +1092,11 @@ fn with_no_window_for_slow_designs_a_fast_one_still_gets_its_long_window() {
     // taken as fast enough, it is held to the 15-s window all the same; with both windows
     // at 0 it is the paper's bare trial. The trial's figures are the same in all three.
     let c = ctx();
-    let plan = BodyPlan::new(&max().morphology, c.brief.payload);
-    let controller = Controller::static_default();
-    let start = StartPose::new(&plan, &controller);
     let run = |feasible_after: f64, feasible_speed: f64| {
         let mut limits = c.limits;
         limits.upright_after_seconds = 0.0;
         limits.upright_after_feasible_seconds = feasible_after;
-        let mut rec = Recorder::default();
-        let end = run_trial_from(
-            &plan,
-            &start,
-            &controller,
-            &c.settings,
-            &limits,
-            feasible_speed,
-            &mut rec,
-        );
+        let (end, rec) = max_trial(&limits, feasible_speed, None);
         (end, rec.time.len())
     };
     let trial_steps = (c.settings.trial_seconds * c.settings.control_hz).round() as usize;
