@@ -2,7 +2,8 @@
 well the two engines agree: for each design Strider's outcome, then PyBullet's replay of
 the same URDF, start pose, gait targets and drive law; at the end, how many of the designs
 Strider ran to the end stay upright in PyBullet, and how many of those are within 10 % of
-Strider's distance.
+Strider's distance. Each line carries both engines' feet figures (`our_feet`, and
+`pybullet.feet`: slip, share of forward travel along the ground, duty factor).
 
 Usage: python3 tests/python/pybullet_agreement.py GENOMES.json [--worker PATH] [--hz 4000]
            [--scheme static|genome] [--experiment FILE] [--out DIR]
@@ -58,6 +59,7 @@ for i, g in enumerate(genomes):
         completed += 1
         row["our_distance_m"] = stats["distance"]
         row["our_energy_j"] = stats["energy"]
+        row["our_feet"] = stats.get("gait")
         theirs = json.loads(subprocess.run(
             [sys.executable, os.path.join(here, "pybullet_replay.py"), base + ".urdf",
              base + ".start_pose.json", base + ".csv", "--hz", str(args.hz),

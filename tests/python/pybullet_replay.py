@@ -1,7 +1,10 @@
 """Replays a design's trial in PyBullet, a second engine, with Strider's gait and drive law,
 and reports as JSON what happened: the distance its centre of mass moved forward over the
-trial, the energy its joints spent, and whether it stayed up (through the trial and the
-window after it) with only its lower legs on the ground.
+trial, the energy its joints spent, whether it stayed up (through the trial and the
+window after it) with only its lower legs on the ground, and how its feet stepped over the
+trial, measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
+distance a foot slid while on the ground (mean over feet), the share of the feet's forward
+travel within 3 cm of the ground, and the duty factor.
 
 Everything comes from Strider's own files: the URDF (links, masses, inertias, joints; each
 joint's torque limit is its `effort`, its servo gains the `<dynamics>` `spring_stiffness`
@@ -117,6 +120,26 @@ def com():
     return [a / total for a in acc]
 
 
+# The feet: the tip of each lower leg (its link frame's +z, at the tube's length), less half
+# the tube's width, as worker/src/sim/feet.rs takes it.
+GROUND_CLEARANCE = 0.03
+feet = []
+for link, name in sorted(link_names.items()):
+    if name.endswith("_lower"):
+        box = ET.parse(args.urdf).getroot().find(f"link[@name='{name}']/collision/geometry/box")
+        size = [float(x) for x in box.get("size").split()]
+        feet.append({"link": link, "length": size[2], "half_width": 0.5 * size[0],
+                     "slip": 0.0, "forward": 0.0, "forward_low": 0.0, "steps_down": 0})
+
+
+def foot_position(foot):
+    state = p.getLinkState(robot, foot["link"], computeForwardKinematics=True)
+    m = p.getMatrixFromQuaternion(state[5])
+    at = [state[4][i] + m[3 * i + 2] * foot["length"] for i in range(3)]
+    at[2] -= foot["half_width"]
+    return at
+
+
 def tilt():
     # The body's up axis is the URDF's z: the third column of its rotation.
     m = p.getMatrixFromQuaternion(p.getBasePositionAndOrientation(robot)[1])
@@ -129,6 +152,8 @@ trial_steps = round(args.trial_seconds * args.hz)
 total_steps = round(len(rows) * control_dt * args.hz)
 per_control = round(control_dt * args.hz)
 energy, peak, max_tilt, ended = 0.0, 0.0, 0.0, None
+for foot in feet:
+    foot["at"], foot["down"] = foot_position(foot), False
 end_com = None
 for step in range(total_steps):
     if step == trial_steps:
@@ -157,12 +182,25 @@ for step in range(total_steps):
         ended = {"how": "sank", "at_time": t}
         break
     touching = {c[3] for c in p.getContactPoints(robot, plane) if c[8] <= 0.0}
+    if not after:
+        for foot in feet:
+            now, down = foot_position(foot), foot["link"] in touching
+            dx, dy = now[0] - foot["at"][0], now[1] - foot["at"][1]
+            if foot["down"] and down:
+                foot["slip"] += math.hypot(dx, dy)
+            if dx > 0.0:
+                foot["forward"] += dx
+                if min(now[2], foot["at"][2]) < GROUND_CLEARANCE:
+                    foot["forward_low"] += dx
+            foot["steps_down"] += down
+            foot["at"], foot["down"] = now, down
     dragged = [link_names.get(l, "body") for l in touching if not link_names.get(l, "body").endswith("_lower")]
     if dragged:
         ended = {"how": "dragged", "at_time": t, "part": dragged[0]}
         break
 if end_com is None:
     end_com = com()
+forward = sum(f["forward"] for f in feet)
 
 print(json.dumps({
     "upright": ended is None,
@@ -171,5 +209,11 @@ print(json.dumps({
     "energy_j": energy,
     "max_tilt_degrees": max_tilt,
     "peak_torque_ratio": peak,
+    # Over the trial (or up to where it ended), as Strider's `stats.gait` has them.
+    "feet": {
+        "foot_slip_m": sum(f["slip"] for f in feet) / max(1, len(feet)),
+        "low_forward_share": sum(f["forward_low"] for f in feet) / forward if forward > 0 else 0.0,
+        "duty_factor": sum(f["steps_down"] for f in feet) / max(1, len(feet)) / max(1, min(step + 1, trial_steps)),
+    },
     "hz": args.hz,
 }))
