@@ -181,7 +181,8 @@ for step in range(total_steps):
     if p.getBasePositionAndOrientation(robot)[0][2] < args.min_height_fraction * start_height:
         ended = {"how": "sank", "at_time": t}
         break
-    touching = {c[3] for c in p.getContactPoints(robot, plane) if c[8] <= 0.0}
+    # In contact: overlapping, or pushing (as Strider counts rapier's contacts).
+    touching = {c[3] for c in p.getContactPoints(robot, plane) if c[8] <= 0.0 or c[9] > 0.0}
     if not after:
         for foot in feet:
             now, down = foot_position(foot), foot["link"] in touching

@@ -134,9 +134,9 @@ fn pybullet_replays_max_with_the_same_gait_and_drive_law_and_agrees() {
         "{seen}"
     );
     // The feet, measured as Strider measures them: the share of their forward travel along
-    // the ground and their time on it agree (measured: 0.131 and 0.375 here, 0.112 and
-    // 0.381 in PyBullet). Slip is not compared: Bullet's feet slide about half as far
-    // (0.16 m against 0.33 m for MAX; docs/model.md section 6).
+    // the ground and their time on it agree (measured: 0.131 and 0.388 here, 0.112 and
+    // 0.381 in PyBullet). Slip is not compared: MAX's feet slide less than half as far in
+    // Bullet (0.17 m against 0.38 m; docs/model.md section 6).
     for key in ["low_forward_share", "duty_factor"] {
         let (a, b) = (
             ours["stats"]["gait"][key].as_f64().unwrap(),
