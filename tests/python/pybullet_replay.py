@@ -151,7 +151,7 @@ start_com = com()
 trial_steps = round(args.trial_seconds * args.hz)
 total_steps = round(len(rows) * control_dt * args.hz)
 per_control = round(control_dt * args.hz)
-energy, peak, max_tilt, ended = 0.0, 0.0, 0.0, None
+energy, peak, max_tilt, ended, feet_steps = 0.0, 0.0, 0.0, None, 0
 for foot in feet:
     foot["at"], foot["down"] = foot_position(foot), False
 end_com = None
@@ -172,20 +172,20 @@ for step in range(total_steps):
     if not after:
         for tau, (_, qd, _, _) in zip(torques, p.getJointStates(robot, joints)):
             energy += abs(tau * qd) * dt
-    a = tilt()
-    max_tilt = max(max_tilt, a)
-    limit = min(args.max_tilt, args.after_max_tilt) if after else args.max_tilt
-    if a > limit:
-        ended = {"how": "tilted", "at_time": t, "degrees": a}
+    # As Strider, per step: contacts that end the trial, then the feet, then the tilt and
+    # height. A part is in contact while it overlaps the ground; a foot is also down while
+    # the ground pushes on it (rapier holds a pressed foot a hair above the ground).
+    contacts = p.getContactPoints(robot, plane)
+    touching = {c[3] for c in contacts if c[8] <= 0.0}
+    dragged = [link_names.get(l, "body") for l in touching if not link_names.get(l, "body").endswith("_lower")]
+    if dragged:
+        ended = {"how": "dragged", "at_time": t, "part": dragged[0]}
         break
-    if p.getBasePositionAndOrientation(robot)[0][2] < args.min_height_fraction * start_height:
-        ended = {"how": "sank", "at_time": t}
-        break
-    # In contact: overlapping, or pushing (as Strider counts rapier's contacts).
-    touching = {c[3] for c in p.getContactPoints(robot, plane) if c[8] <= 0.0 or c[9] > 0.0}
     if not after:
+        pushed = {c[3] for c in contacts if c[9] > 0.0}
+        feet_steps += 1
         for foot in feet:
-            now, down = foot_position(foot), foot["link"] in touching
+            now, down = foot_position(foot), foot["link"] in touching | pushed
             dx, dy = now[0] - foot["at"][0], now[1] - foot["at"][1]
             if foot["down"] and down:
                 foot["slip"] += math.hypot(dx, dy)
@@ -195,9 +195,14 @@ for step in range(total_steps):
                     foot["forward_low"] += dx
             foot["steps_down"] += down
             foot["at"], foot["down"] = now, down
-    dragged = [link_names.get(l, "body") for l in touching if not link_names.get(l, "body").endswith("_lower")]
-    if dragged:
-        ended = {"how": "dragged", "at_time": t, "part": dragged[0]}
+    a = tilt()
+    max_tilt = max(max_tilt, a)
+    limit = min(args.max_tilt, args.after_max_tilt) if after else args.max_tilt
+    if a > limit:
+        ended = {"how": "tilted", "at_time": t, "degrees": a}
+        break
+    if p.getBasePositionAndOrientation(robot)[0][2] < args.min_height_fraction * start_height:
+        ended = {"how": "sank", "at_time": t}
         break
 if end_com is None:
     end_com = com()
@@ -214,7 +219,7 @@ print(json.dumps({
     "feet": {
         "foot_slip_m": sum(f["slip"] for f in feet) / max(1, len(feet)),
         "low_forward_share": sum(f["forward_low"] for f in feet) / forward if forward > 0 else 0.0,
-        "duty_factor": sum(f["steps_down"] for f in feet) / max(1, len(feet)) / max(1, min(step + 1, trial_steps)),
+        "duty_factor": sum(f["steps_down"] for f in feet) / max(1, len(feet)) / max(1, feet_steps),
     },
     "hz": args.hz,
 }))

@@ -700,21 +700,23 @@ fn feet_that_skate_past_the_limits_are_invalid_with_the_skating_reason() {
 
 #[test]
 fn a_foot_pressed_on_the_ground_is_on_it_though_rapier_holds_it_a_hair_above() {
-    // An elite of the 1000-generation STATIC run whose feet shuffle (refused for skating on
-    // the 0.6 floor). Rapier's predictive contacts hold a pressed foot up to half a
-    // millimetre above the ground; counted by overlap alone its feet were down a quarter of
-    // the trial and slid 0.37 m (friction 0.6), where PyBullet has them down 59 % of it,
-    // sliding 1.75 m. Counted by the push they get: down 58 % of the trial, 1.3 m slid.
+    // An elite of the 1000-generation STATIC run whose feet shuffle, on the 0.6 floor that
+    // refused it for skating. Rapier's predictive contacts hold a pressed foot up to half a
+    // millimetre above the ground; counted by overlap alone its feet were down 24 % of the
+    // trial and slid 0.37 m, where PyBullet has them down 59 % of it, sliding 1.75 m.
+    // Counted by the push they get: down 62 %, 1.96 m slid.
     let c = ctx();
     let g = fixture("shuffling_feet.json");
     let plan = BodyPlan::new(&g.morphology, c.brief.payload);
+    let mut settings = c.settings;
+    settings.friction = 0.6;
     let mut limits = c.limits;
     limits.max_low_forward_share = 1.0;
     limits.max_foot_slip_ratio = f64::INFINITY;
     let end = run_trial(
         &plan,
         &Controller::static_default(),
-        &c.settings,
+        &settings,
         &limits,
         &mut (),
     );
@@ -723,7 +725,7 @@ fn a_foot_pressed_on_the_ground_is_on_it_though_rapier_holds_it_a_hair_above() {
     };
     println!("shuffler: {:?}, {} m", s.gait, s.distance);
     assert!(s.gait.duty_factor > 0.5, "{:?}", s.gait);
-    assert!(s.gait.foot_slip > 1.0, "{:?}", s.gait);
+    assert!(s.gait.foot_slip > 1.5, "{:?}", s.gait);
 }
 
 #[test]

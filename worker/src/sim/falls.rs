@@ -2,6 +2,7 @@
 //! contacts that end it (a self-contact, a part other than a lower leg on the ground).
 
 use super::world::{part_of_tag, RobotWorld, GROUND_TAG};
+use rapier3d::geometry::ContactPair;
 use strider_common::body_plan::BodyPlan;
 use strider_common::contact::Part;
 use strider_common::experiment::TrialLimits;
@@ -57,21 +58,21 @@ impl FallCheck {
     }
 }
 
-/// Contacts that end the trial, from the pairs in real contact (not merely predicted): when
-/// `self_contacts`, two robot parts not joined by a hinge (hinged pairs have contacts off),
-/// else, when `feet_only`, a part other than a lower leg on the ground. Sets `feet_down[leg]`
-/// for every lower leg on the ground.
+/// Contacts that end the trial, from the pairs in contact (a merely predicted contact is
+/// not one): when `self_contacts`, two robot parts not joined by a hinge (hinged pairs have
+/// contacts off), else, when `feet_only`, a part other than a lower leg on the ground. Sets
+/// `feet_down[leg]` for every lower leg on the ground.
 ///
 /// A pair is in contact when one of its points overlaps (`dist <= 0`). A foot is on the
-/// ground when it overlaps it or the ground pushed on it in the step (a normal impulse above
-/// 0): rapier's predictive contacts hold a pressed part a fraction of a millimetre short of
-/// the ground, and a shuffling elite's feet carried load at 0 < dist <= 0.5 mm in 7,272 of
-/// their 12,390 loaded contact points; counted by overlap alone its feet were down a quarter
-/// of the trial where PyBullet has them down 59 % of it, and slid a fifth as far. The same
-/// holds for the parts whose touch ends a trial (a dragged knee, two legs pressed together),
-/// which are still judged by overlap: counting their pushes too refused 6 of 400 feasible
-/// elites for self-contact, a change of verdicts not yet re-measured over the survey and the
-/// searches (docs/model.md section 6, "Feet that step").
+/// ground when it overlaps it or the ground pushed on it in the step ([`pushed`]): rapier's
+/// predictive contacts hold a pressed part a fraction of a millimetre short of the ground,
+/// and a shuffling elite's feet carried load at 0 < dist <= 0.5 mm in 7,272 of their 12,390
+/// loaded contact points; counted by overlap alone its feet were down a quarter of the
+/// trial where PyBullet has them down 59 % of it, and slid a fifth as far. The same holds
+/// for the parts whose touch ends a trial (a dragged knee, two legs pressed together), which
+/// are still judged by overlap: counting their pushes too refused 6 of 400 feasible elites
+/// for self-contact (the feet's count refused none of them), a change of verdicts not yet
+/// measured over the survey and the searches (docs/model.md section 6, "Feet that step").
 pub(super) fn contacts(
     rw: &RobotWorld,
     feet_only: bool,
@@ -95,7 +96,7 @@ pub(super) fn contacts(
             let part = part_of_tag(a.min(b));
             match part {
                 Part::Link { leg, .. } if part.may_touch_ground() => {
-                    feet_down[leg] |= overlaps || points().any(|p| p.data.impulse > 0.0);
+                    feet_down[leg] |= overlaps || pushed(pair);
                 }
                 _ if feet_only && overlaps => {
                     dragged.get_or_insert(part);
@@ -114,5 +115,19 @@ pub(super) fn contacts(
         fall: Fall::Dragged {
             part: part.name(plan),
         },
+    })
+}
+
+/// Whether the ground pushed on the pair's part in the last step: a normal impulse above 0
+/// on a contact the solver used in it. Only those contacts' impulses are of that step (a
+/// point the solver left out keeps the one it had), and where rapier clusters a pair's
+/// manifolds the solver's are the clusters.
+fn pushed(pair: &ContactPair) -> bool {
+    pair.solver_manifolds().iter().any(|m| {
+        m.data.solver_contacts.iter().any(|c| {
+            m.points
+                .get(c.contact_indices()[0] as usize)
+                .is_some_and(|p| p.data.impulse > 0.0)
+        })
     })
 }

@@ -2,10 +2,9 @@
 //! measured every physics step over the trial (docs/model.md section 6, "Feet that step").
 //!
 //! A foot is the tip of a lower leg (the centre of its end face); it is on the ground when
-//! the lower leg's collider touches the ground (a contact point that overlaps it or pushed
-//! on it in the step: `falls::contacts`). Its height
-//! is the tip's less half the tube's width, so a vertical lower leg standing on the ground
-//! has height 0.
+//! the lower leg's collider touches the ground (a contact point that overlaps it, or that
+//! the ground pushed on in the step: `falls::contacts`). Its height is the tip's less half
+//! the tube's width, so a vertical lower leg standing on the ground has height 0.
 
 use super::world::RobotWorld;
 use strider_common::body_plan::BodyPlan;
