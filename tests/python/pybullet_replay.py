@@ -48,9 +48,12 @@ ap.add_argument("--contact-stiffness", type=float, default=0.0)
 ap.add_argument("--contact-damping", type=float, default=0.0)
 args = ap.parse_args()
 
+# The URDF, parsed once: the servos here, the feet's tube sizes below.
+urdf_root = ET.parse(args.urdf).getroot()
+
 # The servo of every joint, from the URDF.
 servo = {}
-for joint in ET.parse(args.urdf).getroot().iter("joint"):
+for joint in urdf_root.iter("joint"):
     if joint.get("type") != "revolute":
         continue
     dyn, limit = joint.find("dynamics"), joint.find("limit")
@@ -126,7 +129,7 @@ GROUND_CLEARANCE = 0.03
 feet = []
 for link, name in sorted(link_names.items()):
     if name.endswith("_lower"):
-        box = ET.parse(args.urdf).getroot().find(f"link[@name='{name}']/collision/geometry/box")
+        box = urdf_root.find(f"link[@name='{name}']/collision/geometry/box")
         size = [float(x) for x in box.get("size").split()]
         feet.append({"link": link, "length": size[2], "half_width": 0.5 * size[0],
                      "slip": 0.0, "forward": 0.0, "forward_low": 0.0, "steps_down": 0})
