@@ -1,8 +1,8 @@
 """Replays a design's trial in PyBullet, a second engine, with Strider's gait and drive law,
 and reports as JSON what happened: the distance its centre of mass moved forward over the
 trial, the energy its joints spent, whether it stayed up (through the trial and the
-window after it) with only its lower legs on the ground, and how its feet stepped over the
-trial, measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
+window after it) with only its lower legs on the ground and no two of its parts touching
+(but those joined by a hinge), and how its feet stepped over the trial, measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
 distance a foot slid while on the ground (mean over feet), the share of the feet's forward
 travel within 3 cm of the ground, and the duty factor.
 
@@ -18,12 +18,14 @@ joint: light lower legs need about 4000 Hz (the default; MAX walks the same at 1
 Usage: python3 pybullet_replay.py DESIGN.urdf DESIGN.start_pose.json TRACE.csv
            [--hz 4000] [--trial-seconds 5] [--max-tilt 45] [--after-max-tilt 20]
            [--min-height-fraction 0.5] [--friction 0.8] [--cone 1]
-           [--contact-stiffness 0 --contact-damping 0]
+           [--contact-stiffness 0 --contact-damping 0] [--self-contact 1]
 
 The contact knobs are for measuring where the engines differ (docs/model.md section 6):
 --friction is the robot's coefficient against the ground (Strider's is 0.8); --cone 0 uses
 Bullet's pyramid friction instead of its default cone; a --contact-stiffness above 0 (N/m,
-with --contact-damping, Ns/m) makes Bullet's contacts soft instead of rigid.
+with --contact-damping, Ns/m) makes Bullet's contacts soft instead of rigid; --self-contact 0
+lets the robot's parts pass through each other (Strider's collide, except across a hinge,
+and a self-contact ends the trial).
 """
 import argparse
 import csv
@@ -46,6 +48,7 @@ ap.add_argument("--friction", type=float, default=0.8)
 ap.add_argument("--cone", type=int, choices=[0, 1], default=1)
 ap.add_argument("--contact-stiffness", type=float, default=0.0)
 ap.add_argument("--contact-damping", type=float, default=0.0)
+ap.add_argument("--self-contact", type=int, choices=[0, 1], default=1)
 args = ap.parse_args()
 
 # The URDF, parsed once: the servos here, the feet's tube sizes below.
@@ -86,7 +89,11 @@ robot = p.loadURDF(
     # our links are tubes with motors at their joints and the body carries the payload, so
     # that gave a body about twice our moments of inertia (1.9x about pitch and yaw, 2.8x
     # about roll for one elite).
-    flags=p.URDF_USE_INERTIA_FROM_FILE,
+    flags=p.URDF_USE_INERTIA_FROM_FILE
+    # Strider's robot collides with itself except across a hinge, and a self-contact ends
+    # its trial.
+    | (p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
+       if args.self_contact else 0),
 )
 n = p.getNumJoints(robot)
 info = [p.getJointInfo(robot, i) for i in range(n)]
@@ -176,19 +183,24 @@ for step in range(total_steps):
         for tau, (_, qd, _, _) in zip(torques, p.getJointStates(robot, joints)):
             energy += abs(tau * qd) * dt
     # As Strider, per step: contacts that end the trial, then the feet, then the tilt and
-    # height. A part is in contact while it overlaps the ground; a foot is also down while
-    # the ground pushes on it (rapier holds a pressed foot a hair above the ground).
+    # height. Two parts touch while they overlap or the engine pushes them apart (rapier
+    # holds a pressed part a hair short of what it presses on).
+    if args.self_contact:
+        own = [c for c in p.getContactPoints(robot, robot) if c[8] <= 0.0 or c[9] > 0.0]
+        if own:
+            parts = sorted({link_names.get(own[0][3], "body"), link_names.get(own[0][4], "body")})
+            ended = {"how": "self_contact", "at_time": t, "parts": parts}
+            break
     contacts = p.getContactPoints(robot, plane)
-    touching = {c[3] for c in contacts if c[8] <= 0.0}
+    touching = {c[3] for c in contacts if c[8] <= 0.0 or c[9] > 0.0}
     dragged = [link_names.get(l, "body") for l in touching if not link_names.get(l, "body").endswith("_lower")]
     if dragged:
         ended = {"how": "dragged", "at_time": t, "part": dragged[0]}
         break
     if not after:
-        pushed = {c[3] for c in contacts if c[9] > 0.0}
         feet_steps += 1
         for foot in feet:
-            now, down = foot_position(foot), foot["link"] in touching | pushed
+            now, down = foot_position(foot), foot["link"] in touching
             dx, dy = now[0] - foot["at"][0], now[1] - foot["at"][1]
             if foot["down"] and down:
                 foot["slip"] += math.hypot(dx, dy)

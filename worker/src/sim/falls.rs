@@ -63,16 +63,13 @@ impl FallCheck {
 /// contacts off), else, when `feet_only`, a part other than a lower leg on the ground. Sets
 /// `feet_down[leg]` for every lower leg on the ground.
 ///
-/// A pair is in contact when one of its points overlaps (`dist <= 0`). A foot is on the
-/// ground when it overlaps it or the ground pushed on it in the step ([`pushed`]): rapier's
-/// predictive contacts hold a pressed part a fraction of a millimetre short of the ground,
-/// and a shuffling elite's feet carried load at 0 < dist <= 0.5 mm in 7,272 of their 12,390
-/// loaded contact points; counted by overlap alone its feet were down a quarter of the
-/// trial where PyBullet has them down 59 % of it, and slid a fifth as far. The same holds
-/// for the parts whose touch ends a trial (a dragged knee, two legs pressed together), which
-/// are still judged by overlap: counting their pushes too refused 6 of 400 feasible elites
-/// for self-contact (the feet's count refused none of them), a change of verdicts not yet
-/// measured over the survey and the searches (docs/model.md section 6, "Feet that step").
+/// A pair is in contact when one of its points overlaps (`dist <= 0`) or the solver pushed
+/// its parts apart in the step ([`pushed`]): rapier's predictive contacts hold a pressed
+/// part a fraction of a millimetre short of what it presses on. A shuffling elite's feet
+/// carried load at 0 < dist <= 0.5 mm in 7,272 of their 12,390 loaded contact points;
+/// counted by overlap alone its feet were down a quarter of the trial where PyBullet has
+/// them down 59 % of it, and two legs pressed together a hair apart did not touch
+/// (docs/model.md section 6, "Feet that step").
 pub(super) fn contacts(
     rw: &RobotWorld,
     feet_only: bool,
@@ -90,20 +87,24 @@ pub(super) fn contacts(
         if !on_ground && !self_contacts {
             continue;
         }
-        let points = || pair.manifolds().iter().flat_map(|m| m.points.iter());
-        let overlaps = points().any(|p| p.dist <= 0.0);
+        let touches = pair
+            .manifolds()
+            .iter()
+            .flat_map(|m| m.points.iter())
+            .any(|p| p.dist <= 0.0)
+            || pushed(pair);
         if on_ground {
             let part = part_of_tag(a.min(b));
             match part {
                 Part::Link { leg, .. } if part.may_touch_ground() => {
-                    feet_down[leg] |= overlaps || pushed(pair);
+                    feet_down[leg] |= touches;
                 }
-                _ if feet_only && overlaps => {
+                _ if feet_only && touches => {
                     dragged.get_or_insert(part);
                 }
                 _ => {}
             }
-        } else if overlaps {
+        } else if touches {
             let (first, second) = (part_of_tag(a.min(b)), part_of_tag(a.max(b)));
             return Some(InvalidReason::SelfContact {
                 first: first.name(plan),
@@ -118,7 +119,7 @@ pub(super) fn contacts(
     })
 }
 
-/// Whether the ground pushed on the pair's part in the last step: a normal impulse above 0
+/// Whether the solver pushed the pair's parts apart in the last step: a normal impulse above 0
 /// on a contact the solver used in it. Only those contacts' impulses are of that step (a
 /// point the solver left out keeps the one it had), and where rapier clusters a pair's
 /// manifolds the solver's are the clusters.
