@@ -1,8 +1,9 @@
 """Replays a design's trial in PyBullet, a second engine, with Strider's gait and drive law,
 and reports as JSON what happened: the distance its centre of mass moved forward over the
 trial, the energy its joints spent, whether it stayed up (through the trial and the
-window after it) with only its lower legs on the ground and no two of its parts touching
-(but those joined by a hinge), and how its feet stepped over the trial, measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
+window after it) with only its lower legs on the ground and, through the trial, no two of
+its parts touching (but those joined by a hinge), and how its feet stepped over the trial,
+measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
 distance a foot slid while on the ground (mean over feet), the share of the feet's forward
 travel within 3 cm of the ground, and the duty factor.
 
@@ -185,7 +186,8 @@ for step in range(total_steps):
     # As Strider, per step: contacts that end the trial, then the feet, then the tilt and
     # height. Two parts touch while they overlap or the engine pushes them apart (rapier
     # holds a pressed part a hair short of what it presses on).
-    if args.self_contact:
+    # After the trial only falls count, as in Strider (a self-contact then changes no figure).
+    if args.self_contact and not after:
         own = [c for c in p.getContactPoints(robot, robot) if c[8] <= 0.0 or c[9] > 0.0]
         if own:
             parts = sorted({link_names.get(own[0][3], "body"), link_names.get(own[0][4], "body")})

@@ -69,7 +69,7 @@ impl FallCheck {
 /// carried load at 0 < dist <= 0.5 mm in 7,272 of their 12,390 loaded contact points;
 /// counted by overlap alone its feet were down a quarter of the trial where PyBullet has
 /// them down 59 % of it, and two legs pressed together a hair apart did not touch
-/// (docs/model.md section 6, "Feet that step").
+/// (docs/model.md section 6, "Feet that step" and "Two parts pressed together touch").
 pub(super) fn contacts(
     rw: &RobotWorld,
     feet_only: bool,
@@ -119,8 +119,8 @@ pub(super) fn contacts(
     })
 }
 
-/// Whether the solver pushed the pair's parts apart in the last step: a normal impulse above 0
-/// on a contact the solver used in it. Only those contacts' impulses are of that step (a
+/// Whether the solver pushed the pair's parts apart in the last step: a normal impulse above
+/// 0 on a contact the solver used in it. Only those contacts' impulses are of that step (a
 /// point the solver left out keeps the one it had), and where rapier clusters a pair's
 /// manifolds the solver's are the clusters.
 fn pushed(pair: &ContactPair) -> bool {
