@@ -1213,12 +1213,14 @@ impl Multibody {
             }
             for &(sa, na_) in ranges {
                 for &(sb, nb) in ranges {
-                    self.acc_augmented_mass.view_mut((sa, sb), (na_, nb)).gemm_tr(
-                        1.0,
-                        &body_jacobian.columns(sa, na_),
-                        &work.columns(sb, nb),
-                        1.0,
-                    );
+                    self.acc_augmented_mass
+                        .view_mut((sa, sb), (na_, nb))
+                        .gemm_tr(
+                            1.0,
+                            &body_jacobian.columns(sa, na_),
+                            &work.columns(sb, nb),
+                            1.0,
+                        );
                 }
             }
 
@@ -1355,12 +1357,14 @@ impl Multibody {
 
             for &(sa, na_) in ranges {
                 for &(sb, nb) in ranges {
-                    self.acc_augmented_mass.view_mut((sa, sb), (na_, nb)).gemm_tr(
-                        1.0,
-                        &rb_j.columns(sa, na_),
-                        &self.i_coriolis_dt.columns(sb, nb),
-                        1.0,
-                    );
+                    self.acc_augmented_mass
+                        .view_mut((sa, sb), (na_, nb))
+                        .gemm_tr(
+                            1.0,
+                            &rb_j.columns(sa, na_),
+                            &self.i_coriolis_dt.columns(sb, nb),
+                            1.0,
+                        );
                 }
             }
         }
@@ -2455,8 +2459,10 @@ mod test {
             assert!(full.iter().any(|x| *x != 0.0));
             let scale = full.amax();
             let diff = (sparse - full).amax();
-            assert!(diff <= 1.0e-5 * scale, "sparse differs by {diff} (scale {scale})");
+            assert!(
+                diff <= 1.0e-5 * scale,
+                "sparse differs by {diff} (scale {scale})"
+            );
         }
     }
-
 }
