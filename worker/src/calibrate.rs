@@ -1,8 +1,10 @@
 //! How long an experiment takes on this machine, measured in a moment: full-length trials
 //! of the reference design MAX (`designs/max.json`) on every thread at once, under the
 //! experiment's own trial length and physics step, give the wall time of one trial to its
-//! end with every core busy. That is the cost of a trial that walks; the many that fall
-//! or are refused before a trial cost less, so it bounds a run from above.
+//! end with every core busy. That is the cost of a trial that walks and misses the brief:
+//! the many that fall or are refused before a trial cost less, a design that meets the
+//! brief (its long window, its confirming trials) costs more, so it is an estimate of a
+//! run, not a bound.
 
 use crate::batch::map_batch;
 use crate::sim::trial::{run_trial_from, TrialEnd};
@@ -37,7 +39,7 @@ impl Calibration {
 
     /// Wall seconds for `trials` full-length trials on this machine's `threads`, each at
     /// the fastest measured cost.
-    pub fn upper_bound(&self, trials: u64) -> f64 {
+    pub fn wall_seconds_for(&self, trials: u64) -> f64 {
         trials as f64 * self.fastest_trial_seconds / self.threads as f64
     }
 }
@@ -123,6 +125,6 @@ mod tests {
         // The fastest trial is one of the two, so no more CPU than their wall time.
         assert!(c.fastest_trial_seconds > 0.0 && c.fastest_trial_seconds <= c.wall_seconds);
         assert_eq!(c.thread_seconds_per_trial(), c.fastest_trial_seconds);
-        assert!((c.upper_bound(1000) - 1000.0 * c.fastest_trial_seconds / 2.0).abs() < 1e-9);
+        assert!((c.wall_seconds_for(1000) - 1000.0 * c.fastest_trial_seconds / 2.0).abs() < 1e-9);
     }
 }
