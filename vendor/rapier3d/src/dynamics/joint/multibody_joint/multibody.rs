@@ -530,7 +530,7 @@ impl Multibody {
             return; // Nothing to do.
         }
 
-        self.accelerations.fill(0.0);
+        self.accelerations.as_mut_slice().fill(0.0);
 
         // If there is significant movement, the semi-implicit coriolis term
         // occasionally cause instabilities due to the matrix being near singular.
@@ -792,7 +792,7 @@ impl Multibody {
                     link_j_v.gemm(1.0, &shift_tr, &parent_j_w, 1.0);
                 }
             } else {
-                self.body_jacobians[i].fill(0.0);
+                self.body_jacobians[i].as_mut_slice().fill(0.0);
                 parent_to_world = Pose::IDENTITY;
             }
 
@@ -1096,8 +1096,8 @@ impl Multibody {
             self.augmented_mass = DMatrix::zeros(self.ndofs, self.ndofs);
             self.acc_augmented_mass = DMatrix::zeros(self.ndofs, self.ndofs);
         } else {
-            self.augmented_mass.fill(0.0);
-            self.acc_augmented_mass.fill(0.0);
+            self.augmented_mass.as_mut_slice().fill(0.0);
+            self.acc_augmented_mass.as_mut_slice().fill(0.0);
         }
 
         self.augmented_mass_indices.clear();
@@ -1302,8 +1302,8 @@ impl Multibody {
                     }
                 }
             } else {
-                self.coriolis_v[i].fill(0.0);
-                self.coriolis_w[i].fill(0.0);
+                self.coriolis_v[i].as_mut_slice().fill(0.0);
+                self.coriolis_w[i].as_mut_slice().fill(0.0);
             }
 
             let coriolis_v = &mut self.coriolis_v[i];
@@ -2411,7 +2411,7 @@ mod test {
         let mut bodies = RigidBodySet::new();
         let mut joints = MultibodyJointSet::new();
         let mut rnd = oorandom::Rand32::new(7);
-        let mut body = |bodies: &mut RigidBodySet, x: Real| {
+        let body = |bodies: &mut RigidBodySet, x: Real| {
             let m = MassProperties::new(
                 Vector::new(0.1, -0.05, 0.02),
                 1.0 + x,
