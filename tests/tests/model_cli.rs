@@ -143,7 +143,9 @@ fn check_lists_the_paper_runs() {
     assert!(text.contains("es      repeat  19  seed 20"), "{text}");
     // What it will cost: 60 x (400 + 240,000) candidates; ES candidates are 21 trials each.
     assert!(
-        text.contains("cost: 14424000 candidates, 110584000 trials"),
+        text.contains(
+            "cost: 14424000 candidates, 110584000 trials (an ES candidate is up to 21 trials)"
+        ),
         "{text}"
     );
     // And how long, from full-length trials simulated now on this machine.
@@ -162,7 +164,7 @@ fn check_lists_the_paper_runs() {
     // said, and what they come to: 5 trials' time of 20 s (the trial and its 15-s
     // window) against the 6 s of one that misses the brief.
     assert!(
-        text.contains("a design that meets the brief walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time), each with that window: 16.7 trials' time in all for such a candidate"),
+        text.contains("a design that meets the brief and is fitter than its cell's elite walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time), each with that window: 5 trials' time of 20 s against 6 s for one that misses the brief, up to 16.7 trials' time in all for such a trial (under ES, every child that meets the brief and beats its parent)"),
         "{text}"
     );
     // The figure is not called a bound: it is not one.
@@ -205,7 +207,7 @@ fn check_says_what_the_confirming_floors_cost() {
     let text = String::from_utf8(out.stdout).unwrap();
     // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
     assert!(
-        text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 10.0 trials' time in all"),
+        text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a candidate"),
         "{text}"
     );
     assert!(!text.contains("physics steps ("), "{text}");
@@ -220,9 +222,26 @@ fn check_says_what_the_confirming_floors_cost() {
     );
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
-        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time), each with that window: 10.0 trials' time in all"),
+        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all"),
         "{text}"
     );
+    // No ES here, so nothing said of ES candidates.
+    assert!(!text.contains("ES"), "{text}");
+    // No long window: the confirmations alone, and no window named.
+    let path = temp_file(
+        "nowindow.toml",
+        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nupright_after_feasible_seconds = 0\n",
+    );
+    let out = run(
+        "strider-coordinator",
+        &["check", path.to_str().unwrap(), "--no-calibration"],
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("fitter than its cell's elite is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time): 5 trials' time of 6 s against 6 s for one that misses the brief, up to 5.0 trials' time in all"),
+        "{text}"
+    );
+    assert!(!text.contains("-s window"), "{text}");
 }
 
 #[test]
