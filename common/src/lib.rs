@@ -41,18 +41,41 @@ pub use pose::StartPose;
 pub use precheck::EvalContext;
 pub use variation::{MutationRates, Scheme};
 
-/// The Strider build: trials are bit-identical only within one build (see
-/// docs/rapier.md), so the database records it and the coordinator refuses
-/// workers of another.
+/// The Strider build, with the arithmetic this CPU gives it: trials are bit-identical only
+/// within one build on one kind of CPU (see docs/rapier.md), so the database records it
+/// and the coordinator refuses workers of another.
 pub fn build_id() -> String {
     format!(
-        "strider {} ({}, {})",
+        "strider {} ({}, {}{})",
         env!("CARGO_PKG_VERSION"),
         std::env::consts::ARCH,
         if cfg!(debug_assertions) {
             "debug"
         } else {
             "release"
-        }
+        },
+        matrix_arithmetic().map_or(String::new(), |a| format!(", {a}"))
     )
+}
+
+/// How this CPU runs the physics' matrix products, where that changes their bits: nalgebra
+/// hands the larger ones to the `matrixmultiply` crate, which picks a fused multiply-add
+/// kernel when the program runs on an x86-64 CPU with AVX2 and FMA (AVX-512 CPUs have
+/// both) and separate multiplies and adds otherwise. The two give different trials from
+/// the same binary (measured: docs/rapier.md, "The same binary on another CPU").
+pub fn matrix_arithmetic() -> Option<&'static str> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fused = std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("avx2");
+        Some(if fused {
+            "fused multiply-add"
+        } else {
+            "separate multiply and add"
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        None
+    }
 }

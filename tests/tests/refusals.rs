@@ -1,5 +1,5 @@
 //! Bad callers get a clear gRPC error and change nothing: no secret or a wrong one, another
-//! protocol version, a NaN fitness, a message over the size limit, a candidate nobody
+//! protocol version, a worker whose CPU does the arithmetic another way, a NaN fitness, a message over the size limit, a candidate nobody
 //! leased them, another run's candidate. A raw client speaks the protocol here, as a
 //! broken or hostile worker would.
 
@@ -258,6 +258,36 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             .await
             .unwrap_err();
         assert_eq!(s.code(), Code::FailedPrecondition);
+
+        // The same build on a CPU that does the matrix products' arithmetic the other way
+        // (fused multiply-add or not: other bits, docs/rapier.md): refused, both named.
+        let ours = strider_common::build_id();
+        let theirs = match strider_common::matrix_arithmetic() {
+            Some("fused multiply-add") => {
+                ours.replace("fused multiply-add", "separate multiply and add")
+            }
+            Some(_) => ours.replace("separate multiply and add", "fused multiply-add"),
+            None => format!("{ours} on another CPU"),
+        };
+        assert_ne!(ours, theirs);
+        let other_cpu = WorkerMessage {
+            kind: Some(worker_message::Kind::Hello(v1::Hello {
+                protocol_version: 1,
+                worker_name: "a worker on another CPU".into(),
+                slots: 4,
+                build: theirs.clone(),
+            })),
+        };
+        let s = match open(&channel, other_cpu).await {
+            Err(s) => s,
+            Ok(mut st) => st.rx.message().await.unwrap_err(),
+        };
+        assert_eq!(s.code(), Code::FailedPrecondition);
+        assert!(
+            s.message().contains(&theirs) && s.message().contains(&ours),
+            "{}",
+            s.message()
+        );
 
         // A message over the size limit (1 MiB): refused with the reason, not an OK end.
         let (big, b) = assigned(&channel).await;
