@@ -43,11 +43,14 @@ pub use variation::{MutationRates, Scheme};
 
 /// The Strider build, with the arithmetic this CPU gives it: trials are bit-identical only
 /// within one build on one kind of CPU (see docs/rapier.md), so the database records it
-/// and the coordinator refuses workers of another.
+/// and the coordinator refuses workers of another. The build is the version, the commit
+/// (`build.rs`: two commits of one version may simulate differently), the architecture
+/// and the profile.
 pub fn build_id() -> String {
     format!(
-        "strider {} ({}, {}{})",
+        "strider {} (commit {}, {}, {}{})",
         env!("CARGO_PKG_VERSION"),
+        env!("STRIDER_COMMIT"),
         std::env::consts::ARCH,
         if cfg!(debug_assertions) {
             "debug"

@@ -289,6 +289,33 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             s.message()
         );
 
+        // The same version built from another commit (other physics, perhaps): refused.
+        let ours_commit = ours
+            .split("(commit ")
+            .nth(1)
+            .and_then(|rest| rest.split(',').next())
+            .unwrap_or_else(|| panic!("{ours} names no commit"));
+        let theirs = ours.replacen(&format!("commit {ours_commit},"), "commit 0123456789ab,", 1);
+        assert!(ours_commit != "0123456789ab" && theirs != ours);
+        let other_commit = WorkerMessage {
+            kind: Some(worker_message::Kind::Hello(v1::Hello {
+                protocol_version: 1,
+                worker_name: "a worker of another commit".into(),
+                slots: 4,
+                build: theirs.clone(),
+            })),
+        };
+        let s = match open(&channel, other_commit).await {
+            Err(s) => s,
+            Ok(mut st) => st.rx.message().await.unwrap_err(),
+        };
+        assert_eq!(s.code(), Code::FailedPrecondition);
+        assert!(
+            s.message().contains(&theirs) && s.message().contains(&ours),
+            "{}",
+            s.message()
+        );
+
         // A message over the size limit (1 MiB): refused with the reason, not an OK end.
         let (big, b) = assigned(&channel).await;
         let mut huge = real_outcome(&b);
