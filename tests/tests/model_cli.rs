@@ -189,11 +189,12 @@ fn check_lists_the_paper_runs() {
     assert!(!text.contains("measured now"), "{text}");
 }
 
-#[test]
-fn check_says_what_the_confirming_floors_cost() {
+/// What `check --no-calibration` prints for an experiment of one STATIC run with `trial`
+/// as its `[trial]` table.
+fn check_text(file: &str, trial: &str) -> String {
     let path = temp_file(
-        "floors.toml",
-        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nfriction_margin = 0.25\nconfirm_substeps_factor = 1\n",
+        file,
+        &format!("name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\n{trial}"),
     );
     let out = run(
         "strider-coordinator",
@@ -204,7 +205,15 @@ fn check_says_what_the_confirming_floors_cost() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let text = String::from_utf8(out.stdout).unwrap();
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn check_says_what_the_confirming_floors_cost() {
+    let text = check_text(
+        "floors.toml",
+        "friction_margin = 0.25\nconfirm_substeps_factor = 1\n",
+    );
     // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
     assert!(
         text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a candidate"),
@@ -212,15 +221,7 @@ fn check_says_what_the_confirming_floors_cost() {
     );
     assert!(!text.contains("physics steps ("), "{text}");
     // The finer step alone.
-    let path = temp_file(
-        "finer.toml",
-        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nfriction_margin = 0.0\n",
-    );
-    let out = run(
-        "strider-coordinator",
-        &["check", path.to_str().unwrap(), "--no-calibration"],
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = check_text("finer.toml", "friction_margin = 0.0\n");
     assert!(
         text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all"),
         "{text}"
@@ -228,15 +229,7 @@ fn check_says_what_the_confirming_floors_cost() {
     // No ES here, so nothing said of ES candidates.
     assert!(!text.contains("ES"), "{text}");
     // No long window: the confirmations alone, and no window named.
-    let path = temp_file(
-        "nowindow.toml",
-        "name = \"x\"\nschemes = [\"static\"]\nrepeats = 1\nseed = 1\n[trial]\nupright_after_feasible_seconds = 0\n",
-    );
-    let out = run(
-        "strider-coordinator",
-        &["check", path.to_str().unwrap(), "--no-calibration"],
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = check_text("nowindow.toml", "upright_after_feasible_seconds = 0\n");
     assert!(
         text.contains("fitter than its cell's elite is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time): 5 trials' time of 6 s against 6 s for one that misses the brief, up to 5.0 trials' time in all"),
         "{text}"

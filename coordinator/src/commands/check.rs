@@ -192,8 +192,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     let (thread_seconds, all_walked, source) = match calibrate.then(|| measure(&e, cores, trials)) {
         Some(Some(measured)) => measured,
         not_measured => {
-            let steps = (e.run.trial_seconds + e.trial.upright_after_seconds) / e.run.physics_dt();
-            let per_trial = steps * 0.083e-3;
+            let per_trial = plain_trial / e.run.physics_dt() * 0.083e-3;
             let why = match not_measured {
                 None => "--no-calibration",
                 _ => "this build has no simulator",
