@@ -48,6 +48,29 @@ struct Stream {
     rx: Streaming<CoordinatorMessage>,
 }
 
+/// A Hello naming `build` is refused as another build, the message naming both builds.
+async fn refused_as_another_build(channel: &Channel, name: &str, build: &str) {
+    let hello = WorkerMessage {
+        kind: Some(worker_message::Kind::Hello(v1::Hello {
+            protocol_version: 1,
+            worker_name: name.into(),
+            slots: 4,
+            build: build.into(),
+        })),
+    };
+    let s = match open(channel, hello).await {
+        Err(s) => s,
+        Ok(mut st) => st.rx.message().await.unwrap_err(),
+    };
+    assert_eq!(s.code(), Code::FailedPrecondition, "{name}");
+    let ours = strider_common::build_id();
+    assert!(
+        s.message().contains(build) && s.message().contains(&ours),
+        "{}",
+        s.message()
+    );
+}
+
 async fn open(channel: &Channel, first: WorkerMessage) -> Result<Stream, Status> {
     let (tx, out) = mpsc::channel(16);
     tx.send(first).await.unwrap();
@@ -270,24 +293,7 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             None => format!("{ours} on another CPU"),
         };
         assert_ne!(ours, theirs);
-        let other_cpu = WorkerMessage {
-            kind: Some(worker_message::Kind::Hello(v1::Hello {
-                protocol_version: 1,
-                worker_name: "a worker on another CPU".into(),
-                slots: 4,
-                build: theirs.clone(),
-            })),
-        };
-        let s = match open(&channel, other_cpu).await {
-            Err(s) => s,
-            Ok(mut st) => st.rx.message().await.unwrap_err(),
-        };
-        assert_eq!(s.code(), Code::FailedPrecondition);
-        assert!(
-            s.message().contains(&theirs) && s.message().contains(&ours),
-            "{}",
-            s.message()
-        );
+        refused_as_another_build(&channel, "a worker on another CPU", &theirs).await;
 
         // The same version built from another commit (other physics, perhaps): refused.
         let ours_commit = ours
@@ -297,24 +303,7 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             .unwrap_or_else(|| panic!("{ours} names no commit"));
         let theirs = ours.replacen(&format!("commit {ours_commit},"), "commit 0123456789ab,", 1);
         assert!(ours_commit != "0123456789ab" && theirs != ours);
-        let other_commit = WorkerMessage {
-            kind: Some(worker_message::Kind::Hello(v1::Hello {
-                protocol_version: 1,
-                worker_name: "a worker of another commit".into(),
-                slots: 4,
-                build: theirs.clone(),
-            })),
-        };
-        let s = match open(&channel, other_commit).await {
-            Err(s) => s,
-            Ok(mut st) => st.rx.message().await.unwrap_err(),
-        };
-        assert_eq!(s.code(), Code::FailedPrecondition);
-        assert!(
-            s.message().contains(&theirs) && s.message().contains(&ours),
-            "{}",
-            s.message()
-        );
+        refused_as_another_build(&channel, "a worker of another commit", &theirs).await;
 
         // A message over the size limit (1 MiB): refused with the reason, not an OK end.
         let (big, b) = assigned(&channel).await;
