@@ -32,11 +32,14 @@ fn main() -> ExitCode {
     }
 }
 
-/// The command line, with `--version` giving the whole build identity (version, commit,
+/// The command line, with `--version` (and `-V`) giving the whole build identity (version, commit,
 /// architecture, profile, arithmetic): what a coordinator compares with each worker's.
 fn parse() -> Cli {
     let build = strider_common::build_id();
     let version: &'static str = String::leak(build.trim_start_matches("strider ").to_owned());
-    let matches = Cli::command().long_version(version).get_matches();
+    let matches = Cli::command()
+        .version(version)
+        .long_version(version)
+        .get_matches();
     Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
 }
