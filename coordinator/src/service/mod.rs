@@ -187,8 +187,9 @@ impl Shared {
         })
     }
 
-    /// Seconds left at the pace of the last two minutes ([`pace::Pace`]), once this
-    /// process has done some of the work: an estimate.
+    /// Seconds left at the recent pace ([`pace::Pace`]: the last two minutes, or the last
+    /// tenth of this process's time when longer), once this process has done some of the
+    /// work: an estimate.
     pub fn eta(&self, fraction: f64) -> Option<f64> {
         self.pace
             .lock()
