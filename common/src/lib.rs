@@ -61,6 +61,16 @@ pub fn build_id() -> String {
     )
 }
 
+/// [`build_id`] without the leading "strider ": what `--version` prints after the program's
+/// name. Computed once (it asks the CPU) and kept for the program's life, as clap wants.
+pub fn build_version() -> &'static str {
+    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    VERSION.get_or_init(|| {
+        let id = build_id();
+        id.strip_prefix("strider ").unwrap_or(&id).to_owned()
+    })
+}
+
 /// How this CPU runs the physics' matrix products, where that changes their bits: nalgebra
 /// hands the larger ones to the `matrixmultiply` crate, which picks a fused multiply-add
 /// kernel when the program runs on an x86-64 CPU with AVX2 and FMA (AVX-512 CPUs have

@@ -4,7 +4,7 @@
 //! `analyse` read the library, `check` validates an experiment file. Each command lives in
 //! `strider_coordinator::commands`; this parses and turns outcomes into exit statuses.
 
-use clap::{CommandFactory, FromArgMatches};
+use clap::Parser;
 use std::process::ExitCode;
 use strider_coordinator::commands::{execute, Cli, Exit};
 use strider_process::{closed_pipe, report, EXIT_FAILURE};
@@ -20,7 +20,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 const EXIT_NOT_FINISHED: u8 = 75;
 
 fn main() -> ExitCode {
-    match execute(parse().command) {
+    match execute(Cli::parse().command) {
         Ok(Exit::Success) => ExitCode::SUCCESS,
         Ok(Exit::NotFinished) => ExitCode::from(EXIT_NOT_FINISHED),
         // 128 + the signal, as a shell reports a process the signal ended.
@@ -30,16 +30,4 @@ fn main() -> ExitCode {
         Err(e) if closed_pipe(e.as_ref()) => ExitCode::SUCCESS,
         Err(e) => ExitCode::from(report(e.as_ref())),
     }
-}
-
-/// The command line, with `--version` (and `-V`) giving the whole build identity (version, commit,
-/// architecture, profile, arithmetic): what a coordinator compares with each worker's.
-fn parse() -> Cli {
-    let build = strider_common::build_id();
-    let version: &'static str = String::leak(build.trim_start_matches("strider ").to_owned());
-    let matches = Cli::command()
-        .version(version)
-        .long_version(version)
-        .get_matches();
-    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
 }

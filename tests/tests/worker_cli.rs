@@ -266,8 +266,10 @@ fn version_gives_the_whole_build_identity() {
     let tail = build.strip_prefix("strider ").unwrap();
     assert!(tail.contains("(commit "), "{build}");
     for binary in ["strider-worker", "strider-coordinator"] {
-        let out = run(binary, &["--version"]);
-        assert!(out.status.success());
-        assert_eq!(stdout(&out), format!("{binary} {tail}\n"));
+        for flag in ["--version", "-V"] {
+            let out = run(binary, &[flag]);
+            assert!(out.status.success(), "{binary} {flag}");
+            assert_eq!(stdout(&out), format!("{binary} {tail}\n"), "{flag}");
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! random designs pass the brief. Each command lives in `strider_worker::commands`; this
 //! parses and turns outcomes into exit statuses.
 
-use clap::{CommandFactory, FromArgMatches};
+use clap::Parser;
 use std::process::ExitCode;
 use strider_process::{closed_pipe, report};
 use strider_worker::client::WorkerError;
@@ -20,7 +20,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 const EXIT_GAVE_UP: u8 = 69;
 
 fn main() -> ExitCode {
-    match execute(parse()) {
+    match execute(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         // `survey | head`: the reader had enough; not an error.
         Err(e) if closed_pipe(e.as_ref()) => ExitCode::SUCCESS,
@@ -30,16 +30,4 @@ fn main() -> ExitCode {
         }
         Err(e) => ExitCode::from(report(e.as_ref())),
     }
-}
-
-/// The command line, with `--version` (and `-V`) giving the whole build identity (version, commit,
-/// architecture, profile, arithmetic): what a coordinator compares with each worker's.
-fn parse() -> Cli {
-    let build = strider_common::build_id();
-    let version: &'static str = String::leak(build.trim_start_matches("strider ").to_owned());
-    let matches = Cli::command()
-        .version(version)
-        .long_version(version)
-        .get_matches();
-    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
 }

@@ -20,7 +20,10 @@ use strider_process::{default_threads, UsageError};
 #[derive(Parser)]
 #[command(
     name = "strider-coordinator",
-    version,
+    // The whole build identity (commit, architecture, profile, arithmetic): what a
+    // coordinator compares with each worker's.
+    version = strider_common::build_version(),
+    long_version = strider_common::build_version(),
     about = "Strider coordinator: runs MAP-Elites experiments"
 )]
 pub struct Cli {

@@ -20,7 +20,10 @@ use strider_process::{out, outln};
 #[derive(Parser)]
 #[command(
     name = "strider-worker",
-    version,
+    // The whole build identity (commit, architecture, profile, arithmetic): what a
+    // coordinator compares with each worker's.
+    version = strider_common::build_version(),
+    long_version = strider_common::build_version(),
     about = "Strider worker: evaluates robot designs"
 )]
 #[command(args_conflicts_with_subcommands = true)]
