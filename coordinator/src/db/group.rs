@@ -368,6 +368,28 @@ fn unknown_placement(run: i64, name: &str) -> DbError {
     ))
 }
 
+/// Generation 0's candidates of `run` counted by one placement column (`placement` or
+/// `infeasible_placement`): each placement's name and how many had it. Generation 0's
+/// placement counts come from every stored draw of it, which span many steps.
+async fn generation_zero_counts(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    run: i64,
+    column_name: &'static str,
+) -> Result<Vec<(String, usize)>, DbError> {
+    let sql = format!(
+        "SELECT {column_name} AS placement, COUNT(*) AS n FROM candidates \
+         WHERE run_id = ? AND generation = 0 AND {column_name} IS NOT NULL GROUP BY {column_name}"
+    );
+    let key = format!("run {run} generation 0");
+    let rows = sqlx::query(&sql).bind(run).fetch_all(&mut **tx).await?;
+    rows.iter()
+        .map(|r| {
+            let n = column::<i64>(r, "candidates", &key, "n")? as usize;
+            Ok((column(r, "candidates", &key, "placement")?, n))
+        })
+        .collect()
+}
+
 async fn write_step(
     tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
     step: &StepRows,
@@ -422,14 +444,7 @@ async fn write_step(
     }
     if let Some((generation, mut stats)) = step.completed {
         if generation == 0 {
-            for r in sqlx::query("SELECT infeasible_placement AS placement, COUNT(*) AS n FROM candidates WHERE run_id = ? AND generation = 0 AND infeasible_placement IS NOT NULL GROUP BY infeasible_placement")
-                .bind(run)
-                .fetch_all(&mut **tx)
-                .await?
-            {
-                let key = format!("run {run} generation 0");
-                let n = column::<i64>(&r, "candidates", &key, "n")? as usize;
-                let name: String = column(&r, "candidates", &key, "placement")?;
+            for (name, n) in generation_zero_counts(tx, run, "infeasible_placement").await? {
                 match CellChange::named(&name) {
                     Some(CellChange::New) => stats.infeasible_new = n,
                     Some(CellChange::Improved) => stats.infeasible_improved = n,
@@ -437,14 +452,7 @@ async fn write_step(
                     None => return Err(unknown_placement(run, &name)),
                 }
             }
-            for r in sqlx::query("SELECT placement, COUNT(*) AS n FROM candidates WHERE run_id = ? AND generation = 0 GROUP BY placement")
-                .bind(run)
-                .fetch_all(&mut **tx)
-                .await?
-            {
-                let key = format!("run {run} generation 0");
-                let n = column::<i64>(&r, "candidates", &key, "n")? as usize;
-                let name: String = column(&r, "candidates", &key, "placement")?;
+            for (name, n) in generation_zero_counts(tx, run, "placement").await? {
                 match Placement::named(&name) {
                     Some(Placement::New) => stats.new = n,
                     Some(Placement::Improved) => stats.improved = n,
