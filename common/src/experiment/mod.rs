@@ -560,6 +560,35 @@ mod tests {
         Experiment::from_toml(text).unwrap_err().to_string()
     }
 
+    /// Every experiment file shipped in `experiments/` (the ones the README and
+    /// BENCHMARKS.md tell users to run) loads and validates, its initial designs too.
+    #[test]
+    fn every_shipped_experiment_loads() {
+        let folder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments");
+        let mut names = Vec::new();
+        for entry in std::fs::read_dir(&folder).expect("experiments/ is readable") {
+            let path = entry.expect("a directory entry").path();
+            if path.extension().is_some_and(|x| x == "toml") {
+                if let Err(e) = Experiment::load(&path) {
+                    panic!("{e}");
+                }
+                names.push(path.file_name().unwrap().to_string_lossy().into_owned());
+            }
+        }
+        names.sort();
+        for shipped in [
+            "paper-compare.toml",
+            "paper-static.toml",
+            "paper.toml",
+            "quick.toml",
+        ] {
+            assert!(
+                names.iter().any(|n| n == shipped),
+                "{shipped} missing from {names:?}"
+            );
+        }
+    }
+
     #[test]
     fn paper_defaults() {
         let e = Experiment::paper();
