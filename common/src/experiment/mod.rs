@@ -568,16 +568,19 @@ mod tests {
         let mut names = Vec::new();
         for entry in std::fs::read_dir(&folder).expect("experiments/ is readable") {
             let path = entry.expect("a directory entry").path();
-            if path.extension().is_some_and(|x| x == "toml") {
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            // Dot files are editors' locks and backups, not experiments.
+            if name.ends_with(".toml") && !name.starts_with('.') {
                 if let Err(e) = Experiment::load(&path) {
-                    panic!("{e}");
+                    panic!("{}: {e}", path.display());
                 }
-                names.push(path.file_name().unwrap().to_string_lossy().into_owned());
+                names.push(name);
             }
         }
         names.sort();
         for shipped in [
             "paper-compare.toml",
+            "paper-reject.toml",
             "paper-static.toml",
             "paper.toml",
             "quick.toml",
