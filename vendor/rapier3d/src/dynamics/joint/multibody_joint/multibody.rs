@@ -1186,12 +1186,7 @@ impl Multibody {
             let rb_mass_matrix = concat_rb_mass_matrix(rb_mass, augmented_inertia.into());
             let ranges = &col_ranges[i];
             for &(sb, nb) in ranges {
-                work.columns_mut(sb, nb).gemm(
-                    1.0,
-                    &rb_mass_matrix_wo_gyro,
-                    &body_jacobian.columns(sb, nb),
-                    0.0,
-                );
+                spatial_product(&mut work, &rb_mass_matrix_wo_gyro, body_jacobian, sb, nb);
             }
             for &(sa, na_) in ranges {
                 for &(sb, nb) in ranges {
@@ -1204,12 +1199,7 @@ impl Multibody {
                 }
             }
             for &(sb, nb) in ranges {
-                work.columns_mut(sb, nb).gemm(
-                    1.0,
-                    &rb_mass_matrix,
-                    &body_jacobian.columns(sb, nb),
-                    0.0,
-                );
+                spatial_product(&mut work, &rb_mass_matrix, body_jacobian, sb, nb);
             }
             for &(sa, na_) in ranges {
                 for &(sb, nb) in ranges {
@@ -2202,6 +2192,66 @@ impl IndexSequence {
     }
 }
 
+/// Strider patch: `out.columns(s, n) = m * j.columns(s, n)`, the spatial mass matrix times
+/// a range of a link's body Jacobian, with the same bits on every CPU.
+///
+/// nalgebra hands this product to the `matrixmultiply` crate when the range has more than 5
+/// columns, and that crate picks its kernel by the CPU it runs on: on x86-64 with FMA each
+/// entry is a chain of fused multiply-adds over `k` from zero, on older CPUs separate
+/// multiplies and adds, so the same binary stepped a robot differently on two kinds of
+/// node. Here each entry is always that fused chain, in matrixmultiply's order (bit for bit
+/// what its FMA kernels give; the CPU's own FMA where it has one, the C library's exact
+/// `fmaf` where not), and without its packing, which cost more than the product for these
+/// 6-row blocks. Ranges of 5 columns or fewer keep nalgebra's own loops, as before.
+#[inline]
+fn spatial_product(
+    out: &mut Jacobian<Real>,
+    m: &SMatrix<Real, SPATIAL_DIM, SPATIAL_DIM>,
+    j: &Jacobian<Real>,
+    s: usize,
+    n: usize,
+) {
+    #[cfg(feature = "std")]
+    if n > 5 {
+        let (out, m, j) = (out.as_mut_slice(), m.as_slice(), j.as_slice());
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA, checked just above.
+            unsafe { fused_product_fma(out, m, j, s, n) };
+            return;
+        }
+        fused_product(out, m, j, s, n);
+        return;
+    }
+    out.columns_mut(s, n).gemm(1.0, m, &j.columns(s, n), 0.0);
+}
+
+/// [`fused_product`] compiled for CPUs with FMA, so `mul_add` is one instruction.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "fma")]
+unsafe fn fused_product_fma(out: &mut [Real], m: &[Real], j: &[Real], s: usize, n: usize) {
+    fused_product(out, m, j, s, n)
+}
+
+/// Column-major `out[.., c] = m * j[.., c]` for `c` in `s..s + n`, each entry
+/// `fma(m[r, 5], j[5, c], ... fma(m[r, 0], j[0, c], 0))`.
+#[cfg(feature = "std")]
+#[inline(always)]
+fn fused_product(out: &mut [Real], m: &[Real], j: &[Real], s: usize, n: usize) {
+    const D: usize = SPATIAL_DIM;
+    for c in s..s + n {
+        let jc = &j[c * D..c * D + D];
+        let oc = &mut out[c * D..c * D + D];
+        for (r, o) in oc.iter_mut().enumerate() {
+            let mut acc: Real = 0.0;
+            for (k, jk) in jc.iter().enumerate() {
+                acc = m[k * D + r].mul_add(*jk, acc);
+            }
+            *o = acc;
+        }
+    }
+}
+
 #[cfg(test)]
 mod test {
     use super::IndexSequence;
@@ -2463,6 +2513,69 @@ mod test {
                 diff <= 1.0e-5 * scale,
                 "sparse differs by {diff} (scale {scale})"
             );
+        }
+    }
+
+    /// Strider patch: the spatial products the mass matrix is assembled from have the same
+    /// bits whether the CPU has FMA or not (the `fmaf` path is what a CPU without it runs)
+    /// and, where this CPU has FMA, the bits nalgebra's `gemm` gave through matrixmultiply's
+    /// FMA kernels, so trials are unchanged on such CPUs. Fails if an entry's chain is
+    /// reordered, started from a non-zero, or left unfused.
+    #[cfg(feature = "std")]
+    #[test]
+    fn spatial_product_is_fused_and_matches_matrixmultiply() {
+        use super::{fused_product, spatial_product};
+        use crate::math::{Jacobian, Real, SPATIAL_DIM};
+        use na::SMatrix;
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 40.0
+        };
+        let ndofs = 24;
+        let m = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::from_fn(|_, _| next());
+        let j = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let bits = |x: &Jacobian<Real>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (s, n) in [(0, 6), (0, 9), (6, 3), (9, 3), (15, 5), (0, 24)] {
+            let mut ours = Jacobian::zeros(ndofs);
+            spatial_product(&mut ours, &m, &j, s, n);
+            let mut reference = Jacobian::zeros(ndofs);
+            reference
+                .columns_mut(s, n)
+                .gemm(1.0, &m, &j.columns(s, n), 0.0);
+            let fma_cpu = {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    std::is_x86_feature_detected!("fma") && std::is_x86_feature_detected!("avx2")
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                {
+                    false
+                }
+            };
+            if n > 5 {
+                let mut soft = Jacobian::zeros(ndofs);
+                fused_product(soft.as_mut_slice(), m.as_slice(), j.as_slice(), s, n);
+                assert_eq!(bits(&ours), bits(&soft), "columns {s}..{}", s + n);
+                let mut unfused = Jacobian::zeros(ndofs);
+                for c in s..s + n {
+                    for r in 0..SPATIAL_DIM {
+                        unfused[(r, c)] =
+                            (0..SPATIAL_DIM).fold(0.0, |acc, k| acc + m[(r, k)] * j[(k, c)]);
+                    }
+                }
+                assert_ne!(
+                    bits(&ours),
+                    bits(&unfused),
+                    "columns {s}..{}: not fused",
+                    s + n
+                );
+                if fma_cpu {
+                    assert_eq!(bits(&ours), bits(&reference), "columns {s}..{}", s + n);
+                }
+            } else {
+                assert_eq!(bits(&ours), bits(&reference), "columns {s}..{}", s + n);
+            }
         }
     }
 }
