@@ -1422,6 +1422,9 @@ impl Multibody {
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
         );
+        // Strider patch: its factors as plain matrices, for `solve_jacobians`.
+        self.workspace.inv_mass_l = self.inv_augmented_mass.l();
+        self.workspace.inv_mass_u = self.inv_augmented_mass.u();
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
@@ -1997,6 +2000,133 @@ impl Multibody {
     /// Fills `jacobians` with the relative jacobian `J = J2ᵀ·f2 − J1ᵀ·f1` of two links of `self`, then `M⁻¹·J`
     /// (e.g. a loop closure). The difference must be explicit: per-link blocks lose the `J1ᵀ·W·J2` effective-mass
     /// coupling since both act on the same generalized velocities. Cancellation-vanished rows are zeroed so the solver skips them.
+    /// Strider patch: [`Self::fill_jacobians`] without its solve: writes the row's
+    /// Jacobian `J` at `j_id` and a copy of it after, for [`Self::solve_jacobians`] to turn
+    /// into `M⁻¹ Jᵀ` together with the other rows of a contact; then
+    /// [`Self::jacobian_dot`] gives what `fill_jacobians` returns first.
+    pub(crate) fn fill_jacobians_unsolved(
+        &self,
+        link_id: usize,
+        unit_force: Vector,
+        unit_torque: AngVector,
+        j_id: &mut usize,
+        jacobians: &mut DVector,
+    ) {
+        if self.ndofs == 0 {
+            return;
+        }
+        let wj_id = *j_id + self.ndofs;
+        let force = Force {
+            linear: unit_force,
+            angular: unit_torque,
+        };
+        let link = &self.links[link_id];
+        let mut out_j = jacobians.rows_mut(*j_id, self.ndofs);
+        self.body_jacobians[link.internal_id].tr_mul_to(force.as_vector(), &mut out_j);
+        for i in 0..self.ndofs {
+            jacobians[wj_id + i] = jacobians[*j_id + i];
+        }
+        *j_id += self.ndofs * 2;
+    }
+
+    /// Strider patch: `J · M⁻¹ Jᵀ` of the row at `j_id`, once solved (0 for no dofs, as
+    /// [`Self::fill_jacobians`] gives).
+    pub(crate) fn jacobian_dot(&self, j_id: usize, jacobians: &DVector) -> Real {
+        if self.ndofs == 0 {
+            return 0.0;
+        }
+        let j = jacobians.rows(j_id, self.ndofs);
+        let invm_j = jacobians.rows(j_id + self.ndofs, self.ndofs);
+        j.dot(&invm_j)
+    }
+
+    /// Strider patch: the solve of [`Self::fill_jacobians`] for several rows at once (the
+    /// rows [`Self::fill_jacobians_unsolved`] wrote at `j_ids`).
+    ///
+    /// `LU::solve_mut` on one row is two triangular solves whose every step waits on the
+    /// one before; a contact's rows (up to 12) are independent, so here they are solved
+    /// side by side, each entry of each row receiving exactly the operations, in the same
+    /// order, that `solve_mut` gives it (its permutation, `y = -x_i l + y` down the unit
+    /// lower factor, `x_i = x_i / u_ii` then `y = -x_i u + y` up the upper one): the same
+    /// bits, without the wait. Rows of a multibody with kinematic dofs, or more rows or
+    /// dofs than the buffer holds, are solved one by one as before.
+    pub(crate) fn solve_jacobians(&self, j_ids: &[usize], jacobians: &mut DVector) {
+        const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;
+        const MAX_DOFS: usize = 64;
+        let n = self.ndofs;
+        let rows = j_ids.len();
+        let batched = self.augmented_mass_indices.first_to_remove == IndexSequence::NONE
+            && (2..=MAX_ROWS).contains(&rows)
+            && (1..=MAX_DOFS).contains(&n)
+            && self.workspace.inv_mass_u.nrows() == n
+            && self.workspace.inv_mass_l.nrows() == n;
+        if !batched {
+            if n == 0 {
+                return;
+            }
+            for &j_id in j_ids {
+                let mut out_invm_j = jacobians.rows_mut(j_id + n, n);
+                self.augmented_mass_indices.with_rearranged_rows_mut(
+                    &mut out_invm_j,
+                    |out_invm_j| {
+                        self.inv_augmented_mass.solve_mut(out_invm_j);
+                    },
+                );
+            }
+            return;
+        }
+        // Row-interleaved: entry i of row c at `x[i][c]`, `MAX_ROWS` wide whatever the
+        // number of rows (the unused lanes hold zeros and are dropped), so that every
+        // loop below is a fixed-length one the compiler turns into vector instructions.
+        let mut buffer = [[0.0 as Real; MAX_ROWS]; MAX_DOFS];
+        let x = &mut buffer[..n];
+        for (c, &j_id) in j_ids.iter().enumerate() {
+            let mut row = jacobians.rows_mut(j_id + n, n);
+            self.inv_augmented_mass.p().permute_rows(&mut row);
+            for (xi, v) in x.iter_mut().zip(row.iter()) {
+                xi[c] = *v;
+            }
+        }
+        let l = &self.workspace.inv_mass_l;
+        let u = &self.workspace.inv_mass_u;
+        // nalgebra's `solve_lower_triangular_with_diag_mut` with a unit diagonal.
+        for i in 0..n - 1 {
+            let (head, tail) = x.split_at_mut(i + 1);
+            // A copy, so the compiler knows the stores below cannot change it.
+            let xi: [Real; MAX_ROWS] = head[i];
+            let l_col = &l.as_slice()[i * n + i + 1..(i + 1) * n];
+            for (y, lv) in tail.iter_mut().zip(l_col) {
+                for c in 0..MAX_ROWS {
+                    let coeff = xi[c] / 1.0;
+                    y[c] = -coeff * *lv * 1.0 + 1.0 * y[c];
+                }
+            }
+        }
+        // nalgebra's `solve_upper_triangular_vector_mut`, which stops at a zero pivot.
+        for i in (0..n).rev() {
+            let diag = u[(i, i)];
+            if diag == 0.0 {
+                break;
+            }
+            let (head, tail) = x.split_at_mut(i);
+            for v in tail[0].iter_mut() {
+                *v /= diag;
+            }
+            let xi: [Real; MAX_ROWS] = tail[0];
+            let u_col = &u.as_slice()[i * n..i * n + i];
+            for (y, uv) in head.iter_mut().zip(u_col) {
+                for c in 0..MAX_ROWS {
+                    y[c] = -xi[c] * *uv * 1.0 + 1.0 * y[c];
+                }
+            }
+        }
+        for (c, &j_id) in j_ids.iter().enumerate() {
+            for (i, xi) in x.iter().enumerate() {
+                jacobians[j_id + n + i] = xi[c];
+            }
+        }
+    }
+
     pub(crate) fn fill_relative_jacobians(
         &self,
         link_id1: usize,
@@ -2452,11 +2582,9 @@ mod test {
         );
     }
 
-    /// Strider patch: the sparse mass-matrix assembly equals the upstream dense one on a
-    /// branched tree (free root, two 2-link legs) with every link moving.
+    /// A branched tree (free root, three 2-link legs) with every link moving, and its bodies.
     #[cfg(feature = "dim3")]
-    #[test]
-    fn sparse_mass_matrix_matches_dense() {
+    fn moving_three_legged_tree() -> (RigidBodySet, super::Multibody) {
         use crate::dynamics::MassProperties;
         let mut bodies = RigidBodySet::new();
         let mut joints = MultibodyJointSet::new();
@@ -2498,6 +2626,15 @@ mod test {
         }
         mb.forward_kinematics(&bodies, false);
         mb.update_velocities(&mut bodies);
+        (bodies, mb.clone())
+    }
+
+    /// Strider patch: the sparse mass-matrix assembly equals the upstream dense one on a
+    /// branched tree (free root, two 2-link legs) with every link moving.
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn sparse_mass_matrix_matches_dense() {
+        let (bodies, mut mb) = moving_three_legged_tree();
         let dt = 1.0 / 240.0;
         let mut dense = mb.clone();
         mb.update_mass_matrix(dt, &bodies);
@@ -2513,6 +2650,50 @@ mod test {
                 diff <= 1.0e-5 * scale,
                 "sparse differs by {diff} (scale {scale})"
             );
+        }
+    }
+
+    /// Strider patch: a contact's rows solved together (`fill_jacobians_unsolved`, then
+    /// `solve_jacobians`, then `jacobian_dot`) give every row the bits `fill_jacobians`
+    /// gives it alone, for 1 to 12 rows on every link. Fails if the batched solve reorders
+    /// or reassociates any entry's operations.
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn batched_jacobian_solves_match_one_by_one() {
+        let (bodies, mut mb) = moving_three_legged_tree();
+        mb.update_mass_matrix(1.0 / 240.0, &bodies);
+        let n = mb.ndofs();
+        let mut rnd = oorandom::Rand32::new(11);
+        let mut dir = || {
+            Vector::new(
+                rnd.rand_float() * 2.0 - 1.0,
+                rnd.rand_float() * 2.0 - 1.0,
+                rnd.rand_float() * 2.0 - 1.0,
+            )
+        };
+        for rows in [1, 2, 5, 12] {
+            let mut alone = crate::math::DVector::zeros(rows * 2 * n);
+            let mut batched = crate::math::DVector::zeros(rows * 2 * n);
+            let (mut id_alone, mut id_batched) = (0, 0);
+            let mut ids = vec![];
+            let mut dots = vec![];
+            for r in 0..rows {
+                let (link, force, torque) = (r % mb.num_links(), dir(), dir());
+                dots.push(
+                    mb.fill_jacobians(link, force, torque, &mut id_alone, &mut alone)
+                        .0,
+                );
+                ids.push(id_batched);
+                mb.fill_jacobians_unsolved(link, force, torque, &mut id_batched, &mut batched);
+            }
+            assert_eq!(id_alone, id_batched);
+            mb.solve_jacobians(&ids, &mut batched);
+            let bits = |v: &crate::math::DVector| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(alone.iter().skip(n).any(|x| *x != 0.0));
+            assert_eq!(bits(&alone), bits(&batched), "{rows} rows");
+            for (id, dot) in ids.iter().zip(&dots) {
+                assert_eq!(mb.jacobian_dot(*id, &batched).to_bits(), dot.to_bits());
+            }
         }
     }
 

@@ -1,6 +1,7 @@
 use crate::alloc_prelude::*;
 use crate::dynamics::RigidBodyVelocity;
 use crate::math::{DVector, Jacobian, Real};
+use na::DMatrix;
 
 /// A temporary workspace for various updates of the multibody.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
@@ -12,6 +13,11 @@ pub(crate) struct MultibodyWorkspace {
     pub col_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: `M J` for one link, reused across links and steps.
     pub mass_work: Jacobian<Real>,
+    /// Strider patch: the unit-lower factor of `inv_augmented_mass`'s LU, for the
+    /// contact rows' batched solve (`Multibody::solve_jacobians`).
+    pub inv_mass_l: DMatrix<Real>,
+    /// Strider patch: the upper factor (with its diagonal) of the same LU.
+    pub inv_mass_u: DMatrix<Real>,
 }
 
 impl MultibodyWorkspace {
@@ -22,6 +28,8 @@ impl MultibodyWorkspace {
             ndofs_vec: DVector::zeros(0),
             col_ranges: Vec::new(),
             mass_work: Jacobian::zeros(0),
+            inv_mass_l: DMatrix::zeros(0, 0),
+            inv_mass_u: DMatrix::zeros(0, 0),
         }
     }
 

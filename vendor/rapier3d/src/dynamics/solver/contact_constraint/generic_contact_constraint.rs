@@ -145,6 +145,16 @@ impl GenericContactConstraintBuilder {
             out_constraint.tangent1 = tangents1[0];
         }
 
+        // Strider patch: each row's `M⁻¹ Jᵀ` is solved after the loop, a side's rows
+        // together (`Multibody::solve_jacobians`), and its `r` set then. Row `3 k` is
+        // point k's normal, `3 k + 1 + j` its tangent j; per side, the row's Jacobian id
+        // (a multibody side) or its inverse effective mass (any other side).
+        const ROWS: usize = 3 * MAX_MANIFOLD_POINTS;
+        let mut row_jids = [[0usize; ROWS]; 2];
+        let mut row_inv_r = [[0.0 as Real; ROWS]; 2];
+        let mut side_jids = [[0usize; ROWS]; 2];
+        let mut side_rows = [0usize; 2];
+
         for k in 0..manifold_points.len() {
             let manifold_point = &manifold_points[k];
             // Reconstruct the world contact points and separation from the
@@ -198,27 +208,38 @@ impl GenericContactConstraintBuilder {
                     Default::default()
                 };
 
-                let inv_r1 = if let Some((mb1, link_id1)) = multibody1.as_ref() {
-                    mb1.fill_jacobians(*link_id1, force_dir1, torque_dir1, jacobian_id, jacobians)
-                        .0
+                let row = 3 * k;
+                if let Some((mb1, link_id1)) = multibody1.as_ref() {
+                    row_jids[0][row] = *jacobian_id;
+                    side_jids[0][side_rows[0]] = *jacobian_id;
+                    side_rows[0] += 1;
+                    mb1.fill_jacobians_unsolved(
+                        *link_id1,
+                        force_dir1,
+                        torque_dir1,
+                        jacobian_id,
+                        jacobians,
+                    );
                 } else if type1.is_dynamic_or_kinematic() {
-                    force_dir1.dot(mprops1.effective_inv_mass * force_dir1)
-                        + ii_torque_dir1.gdot(torque_dir1)
-                } else {
-                    0.0
-                };
+                    row_inv_r[0][row] = force_dir1.dot(mprops1.effective_inv_mass * force_dir1)
+                        + ii_torque_dir1.gdot(torque_dir1);
+                }
 
-                let inv_r2 = if let Some((mb2, link_id2)) = multibody2.as_ref() {
-                    mb2.fill_jacobians(*link_id2, -force_dir1, torque_dir2, jacobian_id, jacobians)
-                        .0
+                if let Some((mb2, link_id2)) = multibody2.as_ref() {
+                    row_jids[1][row] = *jacobian_id;
+                    side_jids[1][side_rows[1]] = *jacobian_id;
+                    side_rows[1] += 1;
+                    mb2.fill_jacobians_unsolved(
+                        *link_id2,
+                        -force_dir1,
+                        torque_dir2,
+                        jacobian_id,
+                        jacobians,
+                    );
                 } else if type2.is_dynamic_or_kinematic() {
-                    force_dir1.dot(mprops2.effective_inv_mass * force_dir1)
-                        + ii_torque_dir2.gdot(torque_dir2)
-                } else {
-                    0.0
-                };
-
-                let r = crate::utils::inv(inv_r1 + inv_r2);
+                    row_inv_r[1][row] = force_dir1.dot(mprops2.effective_inv_mass * force_dir1)
+                        + ii_torque_dir2.gdot(torque_dir2);
+                }
 
                 // Warm-start impulses and contact newness come from the manifold
                 // point (they are not duplicated on the solver contacts).
@@ -241,7 +262,7 @@ impl GenericContactConstraintBuilder {
                     // the coulomb-friction `generate`).
                     impulse_accumulator: -pt_data.warmstart_impulse,
                     impulse: pt_data.warmstart_impulse,
-                    r,
+                    r: 0.0, // Set once the rows are solved, below the loop.
                     #[cfg(feature = "block-solver")]
                     r_mat_elts: [0.0; 2],
                 };
@@ -290,39 +311,41 @@ impl GenericContactConstraintBuilder {
                     out_constraint.tangent_part[k].ii_torque_dir2[j] = ii_torque_dir2;
 
                     let tangent_glam = tangents1[j];
-                    let inv_r1 = if let Some((mb1, link_id1)) = multibody1.as_ref() {
-                        mb1.fill_jacobians(
+                    let row = 3 * k + 1 + j;
+                    if let Some((mb1, link_id1)) = multibody1.as_ref() {
+                        row_jids[0][row] = *jacobian_id;
+                        side_jids[0][side_rows[0]] = *jacobian_id;
+                        side_rows[0] += 1;
+                        mb1.fill_jacobians_unsolved(
                             *link_id1,
                             tangent_glam,
                             torque_dir1,
                             jacobian_id,
                             jacobians,
-                        )
-                        .0
+                        );
                     } else if type1.is_dynamic_or_kinematic() {
-                        tangent_glam.dot(mprops1.effective_inv_mass * tangent_glam)
-                            + ii_torque_dir1.gdot(torque_dir1)
-                    } else {
-                        0.0
-                    };
+                        row_inv_r[0][row] = tangent_glam
+                            .dot(mprops1.effective_inv_mass * tangent_glam)
+                            + ii_torque_dir1.gdot(torque_dir1);
+                    }
 
-                    let inv_r2 = if let Some((mb2, link_id2)) = multibody2.as_ref() {
-                        mb2.fill_jacobians(
+                    if let Some((mb2, link_id2)) = multibody2.as_ref() {
+                        row_jids[1][row] = *jacobian_id;
+                        side_jids[1][side_rows[1]] = *jacobian_id;
+                        side_rows[1] += 1;
+                        mb2.fill_jacobians_unsolved(
                             *link_id2,
                             -tangent_glam,
                             torque_dir2,
                             jacobian_id,
                             jacobians,
-                        )
-                        .0
+                        );
                     } else if type2.is_dynamic_or_kinematic() {
-                        tangent_glam.dot(mprops2.effective_inv_mass * tangent_glam)
-                            + ii_torque_dir2.gdot(torque_dir2)
-                    } else {
-                        0.0
-                    };
+                        row_inv_r[1][row] = tangent_glam
+                            .dot(mprops2.effective_inv_mass * tangent_glam)
+                            + ii_torque_dir2.gdot(torque_dir2);
+                    }
 
-                    let r = crate::utils::inv(inv_r1 + inv_r2);
                     let rhs_wo_bias = manifold_point.tangent_velocity.gdot(tangents1[j]);
 
                     out_constraint.tangent_part[k].rhs_wo_bias[j] = rhs_wo_bias;
@@ -330,8 +353,7 @@ impl GenericContactConstraintBuilder {
 
                     // TODO: in 3D, we should take into account gcross[0].dot(gcross[1])
                     // in lhs. See the corresponding code on the `velocity_constraint.rs`
-                    // file.
-                    out_constraint.tangent_part[k].r[j] = r;
+                    // file. (Strider patch: `r` is set below the loop.)
                 }
             }
 
@@ -373,6 +395,26 @@ impl GenericContactConstraintBuilder {
             out_builder.infos[k] = infos;
             out_constraint.manifold_contact_id[k] =
                 (manifold_point.contact_id[0] & !crate::geometry::NEW_CONTACT_BIT) as u8;
+        }
+
+        // Strider patch: the rows' solves, then each row's `r = 1 / (inv_r1 + inv_r2)`.
+        let sides = [multibody1.as_ref(), multibody2.as_ref()];
+        for (side, mb) in sides.iter().enumerate() {
+            if let Some((mb, _)) = mb {
+                mb.solve_jacobians(&side_jids[side][..side_rows[side]], jacobians);
+                for k in 0..manifold_points.len() {
+                    for row in 3 * k..3 * k + DIM {
+                        row_inv_r[side][row] = mb.jacobian_dot(row_jids[side][row], jacobians);
+                    }
+                }
+            }
+        }
+        for k in 0..manifold_points.len() {
+            let r = |row: usize| crate::utils::inv(row_inv_r[0][row] + row_inv_r[1][row]);
+            out_constraint.normal_part[k].r = r(3 * k);
+            for j in 0..DIM - 1 {
+                out_constraint.tangent_part[k].r[j] = r(3 * k + 1 + j);
+            }
         }
 
         let ndofs1 = multibody1.map(|mb| mb.0.ndofs()).unwrap_or(0);
