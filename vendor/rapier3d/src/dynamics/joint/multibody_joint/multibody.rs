@@ -766,11 +766,99 @@ impl Multibody {
     }
 
     fn update_body_jacobians(&mut self) {
+        // Strider patch: a link's body Jacobian is zero outside the columns of its own and
+        // its ancestors' dofs (its `ranges`, as in `update_mass_matrix`), so the two
+        // products below are done over those columns only. Outside them both operands are
+        // zero and the dense product left +0, which the copy from the parent already holds:
+        // the same bits.
+        let mut ranges = core::mem::take(&mut self.workspace.jacobian_ranges);
+        ranges.resize_with(self.links.len(), Vec::new);
+        for i in 0..self.links.len() {
+            let link = &self.links[i];
+            {
+                let own = (link.assembly_id, link.joint.ndofs());
+                // A parent comes before its children, so its ranges are already filled.
+                let (before, from_i) = ranges.split_at_mut(i);
+                let link_ranges = &mut from_i[0];
+                if i == 0 {
+                    link_ranges.clear();
+                } else {
+                    link_ranges.clone_from(&before[link.parent_internal_id]);
+                }
+                if own.1 > 0 {
+                    match link_ranges.last_mut() {
+                        Some(last) if last.0 + last.1 == own.0 => last.1 += own.1,
+                        _ => link_ranges.push(own),
+                    }
+                }
+            }
+
+            if self.body_jacobians[i].ncols() != self.ndofs {
+                // TODO: use a resize instead.
+                self.body_jacobians[i] = Jacobian::zeros(self.ndofs);
+            }
+
+            let parent_to_world;
+
+            if i != 0 {
+                let parent_id = link.parent_internal_id;
+                let parent_link = &self.links[parent_id];
+                parent_to_world = parent_link.local_to_world;
+
+                let (link_j, parent_j) = self.body_jacobians.index_mut_const(i, parent_id);
+                link_j.copy_from(parent_j);
+
+                {
+                    let mut link_j_v = link_j.fixed_rows_mut::<DIM>(0);
+                    let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
+
+                    let shift_tr = vect_to_na(link.shift02).gcross_matrix_tr();
+                    for &(s, n) in &ranges[parent_id] {
+                        link_j_v.columns_mut(s, n).gemm(
+                            1.0,
+                            &shift_tr,
+                            &parent_j_w.columns(s, n),
+                            1.0,
+                        );
+                    }
+                }
+            } else {
+                self.body_jacobians[i].as_mut_slice().fill(0.0);
+                parent_to_world = Pose::IDENTITY;
+            }
+
+            let ndofs = link.joint.ndofs();
+            let mut tmp = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
+            let mut link_joint_j = tmp.columns_mut(0, ndofs);
+            let mut link_j_part = self.body_jacobians[i].columns_mut(link.assembly_id, ndofs);
+            link.joint.jacobian(
+                &(parent_to_world.rotation * link.joint.data.local_frame1.rotation),
+                &mut link_joint_j,
+            );
+            link_j_part += link_joint_j;
+
+            {
+                let link_j = &mut self.body_jacobians[i];
+                let (mut link_j_v, link_j_w) =
+                    link_j.rows_range_pair_mut(0..DIM, DIM..DIM + ANG_DIM);
+                let shift_tr = vect_to_na(link.shift23).gcross_matrix_tr();
+                for &(s, n) in &ranges[i] {
+                    link_j_v
+                        .columns_mut(s, n)
+                        .gemm(1.0, &shift_tr, &link_j_w.columns(s, n), 1.0);
+                }
+            }
+        }
+        self.workspace.jacobian_ranges = ranges;
+    }
+
+    /// The upstream dense body Jacobians, the reference the sparse ones are tested against.
+    #[cfg(test)]
+    fn update_body_jacobians_dense(&mut self) {
         for i in 0..self.links.len() {
             let link = &self.links[i];
 
             if self.body_jacobians[i].ncols() != self.ndofs {
-                // TODO: use a resize instead.
                 self.body_jacobians[i] = Jacobian::zeros(self.ndofs);
             }
 
@@ -2651,6 +2739,25 @@ mod test {
                 "sparse differs by {diff} (scale {scale})"
             );
         }
+    }
+
+    /// Strider patch: the body Jacobians computed over each link's nonzero columns have the
+    /// bits of the upstream dense computation, zeros included.
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn sparse_body_jacobians_match_dense_bit_for_bit() {
+        let (_, mut mb) = moving_three_legged_tree();
+        let mut dense = mb.clone();
+        mb.update_body_jacobians();
+        dense.update_body_jacobians_dense();
+        let mut nonzero = 0;
+        for (sparse, full) in mb.body_jacobians.iter().zip(&dense.body_jacobians) {
+            let bits =
+                |j: &crate::math::Jacobian<Real>| j.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(sparse), bits(full));
+            nonzero += full.iter().filter(|x| **x != 0.0).count();
+        }
+        assert!(nonzero > 0);
     }
 
     /// Strider patch: a contact's rows solved together (`fill_jacobians_unsolved`, then

@@ -11,6 +11,9 @@ pub(crate) struct MultibodyWorkspace {
     pub ndofs_vec: DVector,
     /// Strider patch: each link's nonzero body-Jacobian column ranges `(start, len)`.
     pub col_ranges: Vec<Vec<(usize, usize)>>,
+    /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
+    /// apart: it runs before `update_mass_matrix`, and not always with it).
+    pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: `M J` for one link, reused across links and steps.
     pub mass_work: Jacobian<Real>,
     /// Strider patch: the unit-lower factor of `inv_augmented_mass`'s LU, for the
@@ -27,6 +30,7 @@ impl MultibodyWorkspace {
             accs: Vec::new(),
             ndofs_vec: DVector::zeros(0),
             col_ranges: Vec::new(),
+            jacobian_ranges: Vec::new(),
             mass_work: Jacobian::zeros(0),
             inv_mass_l: DMatrix::zeros(0, 0),
             inv_mass_u: DMatrix::zeros(0, 0),
