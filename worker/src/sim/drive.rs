@@ -21,7 +21,12 @@
 //! if any joint within the limit received more, the world is put back as it was before the
 //! step and the step taken again with those joints at their limit, until none does (at
 //! most once per joint). Measured on MAX at 240 Hz: about one step in 50 is taken twice,
-//! and a snapshot costs about a tenth of a step (BENCHMARKS.md).
+//! and a snapshot costs about a tenth of a step (BENCHMARKS.md). So the world is copied
+//! only every [`SNAPSHOT_EVERY`] steps, and put back as it was before a step by restoring
+//! the copy and taking again the steps since, with the targets and limits they had: a
+//! step is a function of the world and its drives alone, so the replayed steps are the
+//! same bit for bit and so is the trial. A world changed between steps (the trial's shove)
+//! is copied afresh: its state is compared with the one the last step left.
 
 use super::world::{RobotWorld, HINGE_DOF_AXIS};
 use rapier3d::prelude::*;
@@ -52,6 +57,10 @@ impl StepDrive {
         self.stiffness * (self.rest - self.angle) - self.implicit * speed_after
     }
 }
+
+/// Steps between copies of the world (the replays a retaken step costs grow with it, the
+/// copies shrink: 4 measured best on MAX, BENCHMARKS.md).
+pub const SNAPSHOT_EVERY: usize = 4;
 
 /// The parts of the world a step changes: enough to take the step again.
 struct Snapshot {
@@ -95,29 +104,67 @@ pub struct DrivenStepper {
     pub torques: Vec<f64>,
     /// Steps taken again because a joint passed its limit.
     pub retaken: u32,
+    /// Steps replayed from the last copy of the world to take a step again.
+    pub replayed: u32,
+    /// Copies of the world taken.
+    pub copies: u32,
+    /// Steps between copies ([`SNAPSHOT_EVERY`]).
+    every: usize,
     forced: Vec<f64>,
+    /// The world before the steps in `since`.
+    snapshot: Option<Snapshot>,
+    /// The targets and held limits of each step since the snapshot (the first
+    /// `since_len` of them; the vectors are kept to be reused).
+    since: Vec<(Vec<f64>, Vec<f64>)>,
+    since_len: usize,
+    /// The drives of a replayed step (the stepper's own describe the last step).
+    replay_drives: Vec<StepDrive>,
+    /// The robot's state as the last step left it, and as the next step finds it.
+    left: Vec<u32>,
+    found: Vec<u32>,
 }
 
 impl DrivenStepper {
     /// A stepper for `joints` joints.
     pub fn new(joints: usize) -> Self {
+        Self::with_snapshot_every(joints, SNAPSHOT_EVERY)
+    }
+
+    /// A stepper that copies the world every `every` steps (at least 1): the trial is the
+    /// same bit for bit whatever `every`, only its cost changes.
+    pub fn with_snapshot_every(joints: usize, every: usize) -> Self {
+        let every = every.max(1);
         Self {
             drives: vec![StepDrive::default(); joints],
             speeds: vec![0.0; joints],
             torques: vec![0.0; joints],
             retaken: 0,
+            replayed: 0,
+            copies: 0,
+            every,
             forced: vec![0.0; joints],
+            snapshot: None,
+            since: vec![(vec![0.0; joints], vec![0.0; joints]); every],
+            since_len: 0,
+            replay_drives: vec![StepDrive::default(); joints],
+            left: Vec::new(),
+            found: Vec::new(),
         }
     }
 
     /// One physics step of `dt` toward `targets`. Afterwards `drives`, `speeds` and
     /// `torques` describe it; no joint's torque passed its limit (to `LIMIT_ROUNDING`).
+    /// The stepper must step one world only, from its start (the copies are of it).
     pub fn step(&mut self, rw: &mut RobotWorld, dt: f64, targets: &[f64]) {
+        state_bits(rw, &mut self.found);
+        if self.snapshot.is_none() || self.since_len == self.every || self.found != self.left {
+            self.snapshot = Some(Snapshot::take(&rw.world));
+            self.since_len = 0;
+            self.copies += 1;
+        }
         self.forced.fill(0.0);
-        let mut snapshot = None;
         loop {
             set_drives(rw, dt, targets, &self.forced, &mut self.drives);
-            let snap = snapshot.get_or_insert_with(|| Snapshot::take(&rw.world));
             rw.world.step();
             let mb = rw.robot();
             let mut passed = false;
@@ -135,11 +182,41 @@ impl DrivenStepper {
                 }
             }
             if !passed {
+                state_bits(rw, &mut self.left);
+                let (t, f) = &mut self.since[self.since_len];
+                t.copy_from_slice(targets);
+                f.copy_from_slice(&self.forced);
+                self.since_len += 1;
                 return;
             }
             self.retaken += 1;
-            snap.restore(&mut rw.world);
+            self.snapshot
+                .as_ref()
+                .expect("taken before the first step")
+                .restore(&mut rw.world);
+            for (t, f) in &self.since[..self.since_len] {
+                set_drives(rw, dt, t, f, &mut self.replay_drives);
+                rw.world.step();
+                self.replayed += 1;
+            }
         }
+    }
+}
+
+/// The bits of the robot's state a step starts from: its generalized velocities and every
+/// part's pose. Changed between two steps only by something besides the stepper.
+fn state_bits(rw: &RobotWorld, out: &mut Vec<u32>) {
+    out.clear();
+    out.extend(
+        rw.robot()
+            .generalized_velocity()
+            .iter()
+            .map(|v| v.to_bits()),
+    );
+    for (handle, _, _) in &rw.parts {
+        let pose = rw.world.bodies[*handle].position();
+        out.extend(pose.translation.to_array().iter().map(|v| v.to_bits()));
+        out.extend(pose.rotation.to_array().iter().map(|v| v.to_bits()));
     }
 }
 
@@ -197,5 +274,70 @@ fn set_drives(
             .expect("joint link")
             .joint
             .set_spring(HINGE_DOF_AXIS, s32, r32);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use strider_common::{BodyPlan, Controller, EvalContext, StartPose};
+
+    /// MAX stepped `steps` times at 240 Hz toward targets swung hard enough that joints
+    /// reach their limits and steps are taken again, shoved sideways before step
+    /// `shove_at`; every step's state and torques, and the stepper.
+    fn stepped(every: usize, steps: usize, shove_at: usize) -> (Vec<Vec<u32>>, DrivenStepper) {
+        let g = strider_common::reference::max();
+        let plan = BodyPlan::new(&g.morphology, EvalContext::paper().brief.payload);
+        let start = StartPose::new(&plan, &Controller::static_default());
+        let dt = 1.0 / 240.0;
+        let mut rw = RobotWorld::new(&plan, &start, dt);
+        let n = rw.joints.len();
+        let mut stepper = DrivenStepper::with_snapshot_every(n, every);
+        let mut targets = vec![0.0; n];
+        let mut states = Vec::with_capacity(steps);
+        for step in 0..steps {
+            let t = step as f64 * dt;
+            for (i, target) in targets.iter_mut().enumerate() {
+                *target = 1.2 * (9.0 * t + i as f64).sin();
+            }
+            if step == shove_at {
+                rw.robot_mut().generalized_velocity_mut()[2] += 0.5;
+            }
+            stepper.step(&mut rw, dt, &targets);
+            let mut bits = Vec::new();
+            state_bits(&rw, &mut bits);
+            bits.extend(stepper.torques.iter().map(|t| t.to_bits() as u32));
+            states.push(bits);
+        }
+        (states, stepper)
+    }
+
+    #[test]
+    fn a_copy_every_few_steps_steps_as_a_copy_every_step() {
+        let (steps, shove_at) = (600, 250);
+        let (reference, each) = stepped(1, steps, shove_at);
+        assert!(each.retaken > 5, "only {} steps retaken", each.retaken);
+        assert_eq!(each.replayed, 0);
+        for every in [4, 1000] {
+            let (states, stepper) = stepped(every, steps, shove_at);
+            assert_eq!(stepper.retaken, each.retaken, "every {every}");
+            assert!(stepper.replayed > 0, "every {every}: nothing replayed");
+            // Every `every` steps, and once more after the shove.
+            assert!(
+                stepper.copies as usize <= steps / every + 2,
+                "every {every}"
+            );
+            for (step, (a, b)) in reference.iter().zip(&states).enumerate() {
+                assert!(a == b, "every {every}: step {step} differs");
+            }
+        }
+    }
+
+    #[test]
+    fn a_world_changed_between_steps_is_copied_afresh() {
+        let (_, plain) = stepped(1000, 300, usize::MAX);
+        let (_, shoved) = stepped(1000, 300, 150);
+        assert_eq!(plain.copies, 1);
+        assert_eq!(shoved.copies, 2);
     }
 }
