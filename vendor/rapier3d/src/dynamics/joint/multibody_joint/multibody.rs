@@ -1500,16 +1500,17 @@ impl Multibody {
             .rearrange_rows(&mut self.augmented_mass, true);
 
         // TODO: avoid allocation inside LU at each timestep.
-        self.acc_inv_augmented_mass = LU::new(
-            self.acc_augmented_mass
-                .view((0, 0), (effective_dim, effective_dim))
-                .into_owned(),
-        );
-        self.inv_augmented_mass = LU::new(
-            self.augmented_mass
-                .view((0, 0), (effective_dim, effective_dim))
-                .into_owned(),
-        );
+        // Strider patch: the whole matrix (no kinematic dofs) copied as one slice; a view's
+        // `into_owned` copies element by element through an iterator. The same values.
+        let leading = |m: &DMatrix<Real>| {
+            if effective_dim == m.nrows() && effective_dim == m.ncols() {
+                m.clone()
+            } else {
+                m.view((0, 0), (effective_dim, effective_dim)).into_owned()
+            }
+        };
+        self.acc_inv_augmented_mass = LU::new(leading(&self.acc_augmented_mass));
+        self.inv_augmented_mass = LU::new(leading(&self.augmented_mass));
         // Strider patch: its factors as plain matrices, for `solve_jacobians`.
         self.workspace.inv_mass_l = self.inv_augmented_mass.l();
         self.workspace.inv_mass_u = self.inv_augmented_mass.u();
