@@ -41,15 +41,14 @@ pub use pose::StartPose;
 pub use precheck::EvalContext;
 pub use variation::{MutationRates, Scheme};
 
-/// The Strider build: trials are bit-identical only within one build (see docs/rapier.md),
-/// so the database records it and the coordinator refuses workers of another. The build is
-/// the version, the commit (`build.rs`: two commits of one version may simulate
-/// differently), the architecture and the profile. It names no CPU: the physics' matrix
-/// products are fused multiply-adds on every CPU (the vendored rapier's patch; before it,
-/// the `matrixmultiply` crate chose by the CPU and the identity had to name which).
+/// The Strider build, with the arithmetic this CPU gives it: trials are bit-identical only
+/// within one build on one kind of CPU (see docs/rapier.md), so the database records it
+/// and the coordinator refuses workers of another. The build is the version, the commit
+/// (`build.rs`: two commits of one version may simulate differently), the architecture
+/// and the profile.
 pub fn build_id() -> String {
     format!(
-        "strider {} (commit {}, {}, {})",
+        "strider {} (commit {}, {}, {}{})",
         env!("CARGO_PKG_VERSION"),
         env!("STRIDER_COMMIT"),
         std::env::consts::ARCH,
@@ -58,15 +57,39 @@ pub fn build_id() -> String {
         } else {
             "release"
         },
+        cpu_arithmetic().map_or(String::new(), |a| format!(", {a}"))
     )
 }
 
 /// [`build_id`] without the leading "strider ": what `--version` prints after the program's
-/// name. Computed once and kept for the program's life, as clap wants.
+/// name. Computed once (it asks the CPU) and kept for the program's life, as clap wants.
 pub fn build_version() -> &'static str {
     static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     VERSION.get_or_init(|| {
         let id = build_id();
         id.strip_prefix("strider ").unwrap_or(&id).to_owned()
     })
+}
+
+/// Which of the C library's versions of `sin` and `cos` this CPU runs, where that may
+/// change a trial's bits: glibc picks, when the program starts, versions compiled with
+/// fused multiply-add on an x86-64 CPU with FMA and AVX2 (AVX-512 CPUs have both) and plain
+/// ones otherwise, and the gait and rapier's rotations call them. (The physics' matrix
+/// products used to differ by the same rule, through the `matrixmultiply` crate, measured:
+/// docs/rapier.md, "The same binary on another CPU"; they are fused on every CPU now.)
+pub fn cpu_arithmetic() -> Option<&'static str> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fused = std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("avx2");
+        Some(if fused {
+            "fused multiply-add"
+        } else {
+            "separate multiply and add"
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        None
+    }
 }

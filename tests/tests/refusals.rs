@@ -1,7 +1,7 @@
 //! Bad callers get a clear gRPC error and change nothing: no secret or a wrong one, another
-//! protocol version, a worker of another architecture or commit, a NaN fitness, a message
-//! over the size limit, a candidate nobody leased them, another run's candidate. A raw client speaks the protocol here, as a
-//! broken or hostile worker would.
+//! protocol version, a worker of another CPU arithmetic, architecture or commit, a NaN
+//! fitness, a message over the size limit, a candidate nobody leased them, another run's
+//! candidate. A raw client speaks the protocol here, as a broken or hostile worker would.
 
 use std::path::Path;
 use std::process::Command;
@@ -282,9 +282,22 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             .unwrap_err();
         assert_eq!(s.code(), Code::FailedPrecondition);
 
-        // The same build for another architecture (another C library's sin and cos, other
-        // SIMD in the geometry: other bits, docs/rapier.md): refused, both named.
+        // The same build on a CPU that does the arithmetic the other way (the C library's
+        // sin and cos with fused multiply-add or not: other bits, docs/rapier.md): refused,
+        // both named.
         let ours = strider_common::build_id();
+        let theirs = match strider_common::cpu_arithmetic() {
+            Some("fused multiply-add") => {
+                ours.replace("fused multiply-add", "separate multiply and add")
+            }
+            Some(_) => ours.replace("separate multiply and add", "fused multiply-add"),
+            None => format!("{ours} on another CPU"),
+        };
+        assert_ne!(ours, theirs);
+        refused_as_another_build(&channel, "a worker on another CPU", &theirs).await;
+
+        // The same build for another architecture (another C library, other SIMD in the
+        // geometry): refused, both named.
         let arch = std::env::consts::ARCH;
         let other = if arch == "aarch64" {
             "x86_64"

@@ -261,7 +261,7 @@ fn a_worker_without_a_secret_is_refused_at_once_naming_the_flag() {
 #[test]
 fn version_gives_the_whole_build_identity() {
     // What a coordinator compares with each worker's Hello, so a user can compare the two
-    // before deploying: version, commit, architecture, profile.
+    // before deploying: version, commit, architecture, profile, arithmetic.
     let build = strider_common::build_id();
     let tail = build.strip_prefix("strider ").unwrap();
     assert!(tail.contains("(commit "), "{build}");

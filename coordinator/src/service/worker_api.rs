@@ -71,7 +71,7 @@ impl WorkerService for WorkerApi {
         }
         if hello.build != strider_common::build_id() {
             return Err(Status::failed_precondition(format!(
-                "build mismatch: the worker is {:?}, this coordinator {:?}; trials are bit-identical only within one build (docs/rapier.md)",
+                "build mismatch: the worker is {:?}, this coordinator {:?}; trials are bit-identical only within one build on one kind of CPU (docs/rapier.md)",
                 hello.build,
                 strider_common::build_id()
             )));

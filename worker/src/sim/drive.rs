@@ -25,8 +25,11 @@
 //! only every [`SNAPSHOT_EVERY`] steps, and put back as it was before a step by restoring
 //! the copy and taking again the steps since, with the targets and limits they had: a
 //! step is a function of the world and its drives alone, so the replayed steps are the
-//! same bit for bit and so is the trial. A world changed between steps (the trial's shove)
-//! is copied afresh: its state is compared with the one the last step left.
+//! same bit for bit and so is the trial. A robot whose velocities or poses changed between
+//! steps (the trial's shove), or a step of another length, is copied afresh: the state a
+//! step finds is compared with the one the last step left. Any other change to the world
+//! between steps (forces on its bodies, other bodies, joint settings besides the drives)
+//! must be followed by [`DrivenStepper::world_changed`], or a retake would undo it.
 
 use super::world::{RobotWorld, HINGE_DOF_AXIS};
 use rapier3d::prelude::*;
@@ -152,11 +155,17 @@ impl DrivenStepper {
         }
     }
 
+    /// Takes the next step from a fresh copy of the world: to be called after changing the
+    /// world between steps in any way besides the robot's velocities and poses.
+    pub fn world_changed(&mut self) {
+        self.snapshot = None;
+    }
+
     /// One physics step of `dt` toward `targets`. Afterwards `drives`, `speeds` and
     /// `torques` describe it; no joint's torque passed its limit (to `LIMIT_ROUNDING`).
     /// The stepper must step one world only, from its start (the copies are of it).
     pub fn step(&mut self, rw: &mut RobotWorld, dt: f64, targets: &[f64]) {
-        state_bits(rw, &mut self.found);
+        state_bits(rw, dt, &mut self.found);
         if self.snapshot.is_none() || self.since_len == self.every || self.found != self.left {
             self.snapshot = Some(Snapshot::take(&rw.world));
             self.since_len = 0;
@@ -182,7 +191,7 @@ impl DrivenStepper {
                 }
             }
             if !passed {
-                state_bits(rw, &mut self.left);
+                state_bits(rw, dt, &mut self.left);
                 let (t, f) = &mut self.since[self.since_len];
                 t.copy_from_slice(targets);
                 f.copy_from_slice(&self.forced);
@@ -203,10 +212,13 @@ impl DrivenStepper {
     }
 }
 
-/// The bits of the robot's state a step starts from: its generalized velocities and every
-/// part's pose. Changed between two steps only by something besides the stepper.
-fn state_bits(rw: &RobotWorld, out: &mut Vec<u32>) {
+/// The bits of the robot's state a step starts from: its generalized velocities, every
+/// part's pose, and the step's length. Changed between two steps only by something
+/// besides the stepper.
+fn state_bits(rw: &RobotWorld, dt: f64, out: &mut Vec<u32>) {
     out.clear();
+    let dt = dt.to_bits();
+    out.extend([dt as u32, (dt >> 32) as u32]);
     out.extend(
         rw.robot()
             .generalized_velocity()
@@ -282,15 +294,20 @@ mod tests {
     use super::*;
     use strider_common::{BodyPlan, Controller, EvalContext, StartPose};
 
+    /// MAX on the ground, stepping at 240 Hz.
+    fn max_world() -> RobotWorld {
+        let g = strider_common::reference::max();
+        let plan = BodyPlan::new(&g.morphology, EvalContext::paper().brief.payload);
+        let start = StartPose::new(&plan, &Controller::static_default());
+        RobotWorld::new(&plan, &start, 1.0 / 240.0)
+    }
+
     /// MAX stepped `steps` times at 240 Hz toward targets swung hard enough that joints
     /// reach their limits and steps are taken again, shoved sideways before step
     /// `shove_at`; every step's state and torques, and the stepper.
     fn stepped(every: usize, steps: usize, shove_at: usize) -> (Vec<Vec<u32>>, DrivenStepper) {
-        let g = strider_common::reference::max();
-        let plan = BodyPlan::new(&g.morphology, EvalContext::paper().brief.payload);
-        let start = StartPose::new(&plan, &Controller::static_default());
         let dt = 1.0 / 240.0;
-        let mut rw = RobotWorld::new(&plan, &start, dt);
+        let mut rw = max_world();
         let n = rw.joints.len();
         let mut stepper = DrivenStepper::with_snapshot_every(n, every);
         let mut targets = vec![0.0; n];
@@ -305,7 +322,7 @@ mod tests {
             }
             stepper.step(&mut rw, dt, &targets);
             let mut bits = Vec::new();
-            state_bits(&rw, &mut bits);
+            state_bits(&rw, dt, &mut bits);
             bits.extend(stepper.torques.iter().map(|t| t.to_bits() as u32));
             states.push(bits);
         }
@@ -339,5 +356,14 @@ mod tests {
         let (_, shoved) = stepped(1000, 300, 150);
         assert_eq!(plain.copies, 1);
         assert_eq!(shoved.copies, 2);
+        // Told so, or with another step length.
+        let mut rw = max_world();
+        let mut stepper = DrivenStepper::new(rw.joints.len());
+        let targets = vec![0.0; rw.joints.len()];
+        stepper.step(&mut rw, 1.0 / 240.0, &targets);
+        stepper.world_changed();
+        stepper.step(&mut rw, 1.0 / 240.0, &targets);
+        stepper.step(&mut rw, 1.0 / 480.0, &targets);
+        assert_eq!(stepper.copies, 3);
     }
 }
