@@ -772,27 +772,9 @@ impl Multibody {
         // zero and the dense product left +0, which the copy from the parent already holds:
         // the same bits.
         let mut ranges = core::mem::take(&mut self.workspace.jacobian_ranges);
-        ranges.resize_with(self.links.len(), Vec::new);
+        link_column_ranges(&self.links, &mut ranges);
         for i in 0..self.links.len() {
             let link = &self.links[i];
-            {
-                let own = (link.assembly_id, link.joint.ndofs());
-                // A parent comes before its children, so its ranges are already filled.
-                let (before, from_i) = ranges.split_at_mut(i);
-                let link_ranges = &mut from_i[0];
-                if i == 0 {
-                    link_ranges.clear();
-                } else {
-                    link_ranges.clone_from(&before[link.parent_internal_id]);
-                }
-                if own.1 > 0 {
-                    match link_ranges.last_mut() {
-                        Some(last) if last.0 + last.1 == own.0 => last.1 += own.1,
-                        _ => link_ranges.push(own),
-                    }
-                }
-            }
-
             if self.body_jacobians[i].ncols() != self.ndofs {
                 // TODO: use a resize instead.
                 self.body_jacobians[i] = Jacobian::zeros(self.ndofs);
@@ -1206,30 +1188,18 @@ impl Multibody {
         // columns. Assemble them over the nonzero column ranges instead of the full
         // `ndofs x ndofs` products (docs/rapier.md, "Mass-matrix sparsity").
         let mut col_ranges = core::mem::take(&mut self.workspace.col_ranges);
-        col_ranges.clear();
-        col_ranges.resize_with(self.links.len(), Vec::new);
+        link_column_ranges(&self.links, &mut col_ranges);
         let mut work = core::mem::take(&mut self.workspace.mass_work);
         if work.ncols() != self.ndofs {
             work = Jacobian::zeros(self.ndofs);
         }
+        // The body Jacobian of the link at hand, its nonzero columns laid out for
+        // `transposed_product_add`.
+        let mut jt = core::mem::take(&mut self.workspace.jacobian_rows);
+        let ld = self.ndofs;
 
         for i in 0..self.links.len() {
             let link = &self.links[i];
-            {
-                let own = (link.assembly_id, link.joint.ndofs());
-                let mut ranges = if i == 0 {
-                    Vec::with_capacity(4)
-                } else {
-                    col_ranges[link.parent_internal_id].clone()
-                };
-                if own.1 > 0 {
-                    match ranges.last_mut() {
-                        Some(last) if last.0 + last.1 == own.0 => last.1 += own.1,
-                        _ => ranges.push(own),
-                    }
-                }
-                col_ranges[i] = ranges;
-            }
             let rb = &bodies[link.rigid_body];
             let rb_mass = rb.mprops.effective_mass();
             let rb_inertia = rb.mprops.effective_angular_inertia().into_matrix();
@@ -1273,34 +1243,21 @@ impl Multibody {
             #[allow(clippy::useless_conversion)] // Needed in 3D, no-op in 2D
             let rb_mass_matrix = concat_rb_mass_matrix(rb_mass, augmented_inertia.into());
             let ranges = &col_ranges[i];
+            transpose_columns(&mut jt, body_jacobian, ranges);
             for &(sb, nb) in ranges {
                 spatial_product(&mut work, &rb_mass_matrix_wo_gyro, body_jacobian, sb, nb);
             }
-            for &(sa, na_) in ranges {
-                for &(sb, nb) in ranges {
-                    self.augmented_mass.view_mut((sa, sb), (na_, nb)).gemm_tr(
-                        1.0,
-                        &body_jacobian.columns(sa, na_),
-                        &work.columns(sb, nb),
-                        1.0,
-                    );
-                }
-            }
+            transposed_product_add(self.augmented_mass.as_mut_slice(), ld, &jt, &work, ranges);
             for &(sb, nb) in ranges {
                 spatial_product(&mut work, &rb_mass_matrix, body_jacobian, sb, nb);
             }
-            for &(sa, na_) in ranges {
-                for &(sb, nb) in ranges {
-                    self.acc_augmented_mass
-                        .view_mut((sa, sb), (na_, nb))
-                        .gemm_tr(
-                            1.0,
-                            &body_jacobian.columns(sa, na_),
-                            &work.columns(sb, nb),
-                            1.0,
-                        );
-                }
-            }
+            transposed_product_add(
+                self.acc_augmented_mass.as_mut_slice(),
+                ld,
+                &jt,
+                &work,
+                ranges,
+            );
 
             /*
              *
@@ -1433,21 +1390,18 @@ impl Multibody {
                 }
             }
 
-            for &(sa, na_) in ranges {
-                for &(sb, nb) in ranges {
-                    self.acc_augmented_mass
-                        .view_mut((sa, sb), (na_, nb))
-                        .gemm_tr(
-                            1.0,
-                            &rb_j.columns(sa, na_),
-                            &self.i_coriolis_dt.columns(sb, nb),
-                            1.0,
-                        );
-                }
-            }
+            // `jt` still holds this link's body Jacobian (`rb_j`), laid out.
+            transposed_product_add(
+                self.acc_augmented_mass.as_mut_slice(),
+                ld,
+                &jt,
+                &self.i_coriolis_dt,
+                ranges,
+            );
         }
         self.workspace.col_ranges = col_ranges;
         self.workspace.mass_work = work;
+        self.workspace.jacobian_rows = jt;
 
         /*
          * Damping and armature.
@@ -2173,39 +2127,17 @@ impl Multibody {
                 xi[c] = *v;
             }
         }
-        let l = &self.workspace.inv_mass_l;
-        let u = &self.workspace.inv_mass_u;
-        // nalgebra's `solve_lower_triangular_with_diag_mut` with a unit diagonal.
-        for i in 0..n - 1 {
-            let (head, tail) = x.split_at_mut(i + 1);
-            // A copy, so the compiler knows the stores below cannot change it.
-            let xi: [Real; MAX_ROWS] = head[i];
-            let l_col = &l.as_slice()[i * n + i + 1..(i + 1) * n];
-            for (y, lv) in tail.iter_mut().zip(l_col) {
-                for c in 0..MAX_ROWS {
-                    let coeff = xi[c] / 1.0;
-                    y[c] = -coeff * *lv * 1.0 + 1.0 * y[c];
-                }
-            }
+        let l = self.workspace.inv_mass_l.as_slice();
+        let u = self.workspace.inv_mass_u.as_slice();
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX, checked just above.
+            unsafe { lu_solve_rows_avx(x, l, u) };
+        } else {
+            lu_solve_rows(x, l, u);
         }
-        // nalgebra's `solve_upper_triangular_vector_mut`, which stops at a zero pivot.
-        for i in (0..n).rev() {
-            let diag = u[(i, i)];
-            if diag == 0.0 {
-                break;
-            }
-            let (head, tail) = x.split_at_mut(i);
-            for v in tail[0].iter_mut() {
-                *v /= diag;
-            }
-            let xi: [Real; MAX_ROWS] = tail[0];
-            let u_col = &u.as_slice()[i * n..i * n + i];
-            for (y, uv) in head.iter_mut().zip(u_col) {
-                for c in 0..MAX_ROWS {
-                    y[c] = -xi[c] * *uv * 1.0 + 1.0 * y[c];
-                }
-            }
-        }
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        lu_solve_rows(x, l, u);
         for (c, &j_id) in j_ids.iter().enumerate() {
             for (i, xi) in x.iter().enumerate() {
                 jacobians[j_id + n + i] = xi[c];
@@ -2445,6 +2377,191 @@ fn spatial_product(
         return;
     }
     out.columns_mut(s, n).gemm(1.0, m, &j.columns(s, n), 0.0);
+}
+
+/// The rows of [`Multibody::solve_jacobians`] (`x`, row-interleaved) solved against the
+/// unit-lower `l` and upper `u` factors (`n x n`, column-major) of the permuted mass matrix.
+#[inline(always)]
+fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], l: &[Real], u: &[Real]) {
+    const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;
+    let n = x.len();
+    // nalgebra's `solve_lower_triangular_with_diag_mut` with a unit diagonal.
+    for i in 0..n - 1 {
+        let (head, tail) = x.split_at_mut(i + 1);
+        // A copy, so the compiler knows the stores below cannot change it.
+        let xi: [Real; MAX_ROWS] = head[i];
+        let l_col = &l[i * n + i + 1..(i + 1) * n];
+        for (y, lv) in tail.iter_mut().zip(l_col) {
+            for c in 0..MAX_ROWS {
+                let coeff = xi[c] / 1.0;
+                y[c] = -coeff * *lv * 1.0 + 1.0 * y[c];
+            }
+        }
+    }
+    // nalgebra's `solve_upper_triangular_vector_mut`, which stops at a zero pivot.
+    for i in (0..n).rev() {
+        let diag = u[i * n + i];
+        if diag == 0.0 {
+            break;
+        }
+        let (head, tail) = x.split_at_mut(i);
+        for v in tail[0].iter_mut() {
+            *v /= diag;
+        }
+        let xi: [Real; MAX_ROWS] = tail[0];
+        let u_col = &u[i * n..i * n + i];
+        for (y, uv) in head.iter_mut().zip(u_col) {
+            for c in 0..MAX_ROWS {
+                y[c] = -xi[c] * *uv * 1.0 + 1.0 * y[c];
+            }
+        }
+    }
+}
+
+/// [`lu_solve_rows`] compiled for CPUs with AVX: eight lanes instead of four, and no FMA,
+/// so each entry's arithmetic is unchanged.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+unsafe fn lu_solve_rows_avx(
+    x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]],
+    l: &[Real],
+    u: &[Real],
+) {
+    lu_solve_rows(x, l, u)
+}
+
+/// Fills `ranges[i]` with link `i`'s nonzero body-Jacobian columns `(start, len)`: its
+/// ancestors' and its own dofs, adjacent runs merged. Links come parents first. Reuses the
+/// vectors already there.
+fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usize)>>) {
+    ranges.resize_with(links.len(), Vec::new);
+    for (i, link) in links.iter().enumerate() {
+        let own = (link.assembly_id, link.joint.ndofs());
+        // A parent comes before its children, so its ranges are already filled.
+        let (before, from_i) = ranges.split_at_mut(i);
+        let link_ranges = &mut from_i[0];
+        if i == 0 {
+            link_ranges.clear();
+        } else {
+            link_ranges.clone_from(&before[link.parent_internal_id]);
+        }
+        if own.1 > 0 {
+            match link_ranges.last_mut() {
+                Some(last) if last.0 + last.1 == own.0 => last.1 += own.1,
+                _ => link_ranges.push(own),
+            }
+        }
+    }
+}
+
+/// Lanes of [`transposed_product_add`]'s blocks: eight `f32` fill one AVX register.
+const LANES: usize = 8;
+
+/// Copies the columns `ranges` of `j`, in order and side by side, into `jt` for
+/// [`transposed_product_add`]: blocks of [`LANES`] columns, each block `SPATIAL_DIM` rows of
+/// [`LANES`] entries (`jt[(block * SPATIAL_DIM + k) * LANES + lane]`), the last block padded
+/// with zeros.
+fn transpose_columns(jt: &mut Vec<Real>, j: &Jacobian<Real>, ranges: &[(usize, usize)]) {
+    const D: usize = SPATIAL_DIM;
+    let m: usize = ranges.iter().map(|r| r.1).sum();
+    let blocks = m.div_ceil(LANES);
+    jt.clear();
+    jt.resize(blocks * D * LANES, 0.0);
+    let j = j.as_slice();
+    let mut a = 0;
+    for &(s, n) in ranges {
+        for c in s..s + n {
+            let (block, lane) = (a / LANES, a % LANES);
+            for k in 0..D {
+                jt[(block * D + k) * LANES + lane] = j[c * D + k];
+            }
+            a += 1;
+        }
+    }
+}
+
+/// `out[(a, b)] += j[.., a] · w[.., b]` for every `a` and `b` in `ranges` (`out`
+/// column-major with `ld` rows, `jt` the columns of `j` from [`transpose_columns`]): the
+/// blocks nalgebra's `gemm_tr(1.0, j.columns(..), w.columns(..), 1.0)` gave, with its
+/// arithmetic per entry (a dot product summed in row order from +0, unfused, then added
+/// to the entry), so the same bits; laid out so the compiler computes [`LANES`] entries side
+/// by side, where nalgebra's dot products went one entry at a time.
+#[inline]
+fn transposed_product_add(
+    out: &mut [Real],
+    ld: usize,
+    jt: &[Real],
+    w: &Jacobian<Real>,
+    ranges: &[(usize, usize)],
+) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if std::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX, checked just above.
+        unsafe { transposed_product_add_avx(out, ld, jt, w.as_slice(), ranges) };
+        return;
+    }
+    transposed_product_add_any(out, ld, jt, w.as_slice(), ranges);
+}
+
+/// [`transposed_product_add_any`] compiled for CPUs with AVX (no FMA, so each entry's
+/// arithmetic is unchanged).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+unsafe fn transposed_product_add_avx(
+    out: &mut [Real],
+    ld: usize,
+    jt: &[Real],
+    w: &[Real],
+    ranges: &[(usize, usize)],
+) {
+    transposed_product_add_any(out, ld, jt, w, ranges)
+}
+
+#[inline(always)]
+fn transposed_product_add_any(
+    out: &mut [Real],
+    ld: usize,
+    jt: &[Real],
+    w: &[Real],
+    ranges: &[(usize, usize)],
+) {
+    const D: usize = SPATIAL_DIM;
+    // One output column's entries over `ranges`, side by side (at most 4 blocks on the
+    // stack: 32 columns, more than any link here has; longer ones take the heap).
+    let blocks = jt.len() / (D * LANES);
+    let mut stack = [[0.0 as Real; LANES]; 4];
+    let mut heap = Vec::new();
+    let dots: &mut [[Real; LANES]] = if blocks <= stack.len() {
+        &mut stack[..blocks]
+    } else {
+        heap.resize(blocks, [0.0 as Real; LANES]);
+        &mut heap
+    };
+    for &(sb, nb) in ranges {
+        for b in sb..sb + nb {
+            let wb = &w[b * D..b * D + D];
+            for (block, dot) in dots.iter_mut().enumerate() {
+                let rows = &jt[block * D * LANES..(block + 1) * D * LANES];
+                let mut acc = [0.0 as Real; LANES];
+                for k in 0..D {
+                    let row = &rows[k * LANES..k * LANES + LANES];
+                    for l in 0..LANES {
+                        acc[l] += row[l] * wb[k];
+                    }
+                }
+                *dot = acc;
+            }
+            let flat = dots.as_flattened();
+            let out_b = &mut out[b * ld..b * ld + ld];
+            let mut a = 0;
+            for &(sa, na_) in ranges {
+                for (o, d) in out_b[sa..sa + na_].iter_mut().zip(&flat[a..a + na_]) {
+                    *o += *d;
+                }
+                a += na_;
+            }
+        }
+    }
 }
 
 /// [`fused_product`] compiled for CPUs with FMA, so `mul_add` is one instruction.
@@ -2805,6 +2922,97 @@ mod test {
                 assert_eq!(mb.jacobian_dot(*id, &batched).to_bits(), dot.to_bits());
             }
         }
+    }
+
+    /// Strider patch: the mass matrix's `Jᵀ W` blocks, eight entries side by side, have the
+    /// bits nalgebra's `gemm_tr` gave block by block, with or without AVX, for ranges of one
+    /// to six blocks of lanes (the last on the heap). Fails if an entry's dot product is
+    /// reordered, started from a non-zero, fused, or added to another block's entry.
+    #[cfg(feature = "std")]
+    #[test]
+    fn transposed_products_match_gemm_tr_bit_for_bit() {
+        use super::{transpose_columns, transposed_product_add, transposed_product_add_any};
+        use crate::math::{Jacobian, Real};
+        use na::DMatrix;
+        let mut state = 0x1234_5678_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 40.0
+        };
+        let ndofs = 48;
+        let j = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let w = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let start = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
+        let bits = |x: &DMatrix<Real>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let cases: [&[(usize, usize)]; 6] = [
+            &[(0, 6)],
+            &[(0, 9)],
+            &[(0, 6), (9, 3)],
+            &[(0, 6), (12, 1), (20, 2)],
+            &[(3, 8), (16, 8), (30, 1)],
+            &[(0, 45)],
+        ];
+        for ranges in cases {
+            let mut reference = start.clone();
+            for &(sa, na_) in ranges {
+                for &(sb, nb) in ranges {
+                    reference.view_mut((sa, sb), (na_, nb)).gemm_tr(
+                        1.0,
+                        &j.columns(sa, na_),
+                        &w.columns(sb, nb),
+                        1.0,
+                    );
+                }
+            }
+            assert_ne!(bits(&reference), bits(&start));
+            let mut jt = Vec::new();
+            transpose_columns(&mut jt, &j, ranges);
+            let mut ours = start.clone();
+            transposed_product_add(ours.as_mut_slice(), ndofs, &jt, &w, ranges);
+            assert_eq!(bits(&ours), bits(&reference), "{ranges:?}");
+            let mut portable = start.clone();
+            transposed_product_add_any(portable.as_mut_slice(), ndofs, &jt, w.as_slice(), ranges);
+            assert_eq!(bits(&portable), bits(&reference), "{ranges:?} without AVX");
+        }
+    }
+
+    /// Strider patch: the batched triangular solves give the same bits with AVX as without.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[test]
+    fn batched_solve_is_the_same_with_avx() {
+        use super::{lu_solve_rows, lu_solve_rows_avx};
+        use crate::math::{MAX_MANIFOLD_POINTS, Real};
+        if !std::is_x86_feature_detected!("avx") {
+            return;
+        }
+        let mut state = 0x0bad_f00d_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 4.0
+        };
+        let n = 21;
+        let l: Vec<Real> = (0..n * n).map(|_| next()).collect();
+        // A diagonal away from zero, so every row is solved.
+        let u: Vec<Real> = (0..n * n)
+            .map(|e| {
+                if e % (n + 1) == 0 {
+                    3.0 + next().abs()
+                } else {
+                    next()
+                }
+            })
+            .collect();
+        let x: Vec<[Real; 3 * MAX_MANIFOLD_POINTS]> =
+            (0..n).map(|_| core::array::from_fn(|_| next())).collect();
+        let (mut plain, mut avx) = (x.clone(), x.clone());
+        lu_solve_rows(&mut plain, &l, &u);
+        // SAFETY: the CPU has AVX, checked above.
+        unsafe { lu_solve_rows_avx(&mut avx, &l, &u) };
+        let bits = |x: &[[Real; 3 * MAX_MANIFOLD_POINTS]]| {
+            x.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>()
+        };
+        assert_ne!(bits(&plain), bits(&x));
+        assert_eq!(bits(&plain), bits(&avx));
     }
 
     /// Strider patch: the spatial products the mass matrix is assembled from have the same

@@ -16,6 +16,9 @@ pub(crate) struct MultibodyWorkspace {
     pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: `M J` for one link, reused across links and steps.
     pub mass_work: Jacobian<Real>,
+    /// Strider patch: one link's nonzero body-Jacobian columns laid out for
+    /// `transposed_product_add`, reused across links and steps.
+    pub jacobian_rows: Vec<Real>,
     /// Strider patch: the unit-lower factor of `inv_augmented_mass`'s LU, for the
     /// contact rows' batched solve (`Multibody::solve_jacobians`).
     pub inv_mass_l: DMatrix<Real>,
@@ -32,6 +35,7 @@ impl MultibodyWorkspace {
             col_ranges: Vec::new(),
             jacobian_ranges: Vec::new(),
             mass_work: Jacobian::zeros(0),
+            jacobian_rows: Vec::new(),
             inv_mass_l: DMatrix::zeros(0, 0),
             inv_mass_u: DMatrix::zeros(0, 0),
         }
