@@ -44,11 +44,11 @@ pub use variation::{MutationRates, Scheme};
 /// The Strider build, with the arithmetic this CPU gives it: trials are bit-identical only
 /// within one build on one kind of CPU (see docs/rapier.md), so the database records it
 /// and the coordinator refuses workers of another. The build is the version, the commit
-/// (`build.rs`: two commits of one version may simulate differently), the architecture
-/// and the profile.
+/// (`build.rs`: two commits of one version may simulate differently), the architecture,
+/// the profile and any instruction-set extensions it was compiled for ([`compiled_for`]).
 pub fn build_id() -> String {
     format!(
-        "strider {} (commit {}, {}, {}{})",
+        "strider {} (commit {}, {}, {}{}{})",
         env!("CARGO_PKG_VERSION"),
         env!("STRIDER_COMMIT"),
         std::env::consts::ARCH,
@@ -57,8 +57,38 @@ pub fn build_id() -> String {
         } else {
             "release"
         },
-        cpu_arithmetic().map_or(String::new(), |a| format!(", {a}"))
+        cpu_arithmetic().map_or(String::new(), |a| format!(", {a}")),
+        compiled_for()
     )
+}
+
+/// The instruction-set extensions this build was compiled to assume beyond the
+/// architecture's baseline (`RUSTFLAGS="-C target-cpu=native"` and the like), as
+/// `", compiled for avx+avx2+fma"`, or nothing for a default build. They belong in the
+/// build's identity: dependencies choose their arithmetic by them at compile time (`wide`,
+/// whose SIMD types rapier uses, fuses its multiply-adds only when compiled for `fma`), so
+/// the same commit simulates differently (measured: a build for `x86-64-v3` changes the
+/// bits of `fidelity`'s trials).
+fn compiled_for() -> String {
+    const EXTENSIONS: [(&str, bool); 7] = [
+        ("sse3", cfg!(target_feature = "sse3")),
+        ("sse4.1", cfg!(target_feature = "sse4.1")),
+        ("sse4.2", cfg!(target_feature = "sse4.2")),
+        ("avx", cfg!(target_feature = "avx")),
+        ("avx2", cfg!(target_feature = "avx2")),
+        ("fma", cfg!(target_feature = "fma")),
+        ("avx512f", cfg!(target_feature = "avx512f")),
+    ];
+    let on: Vec<&str> = EXTENSIONS
+        .iter()
+        .filter(|(_, on)| *on)
+        .map(|(name, _)| *name)
+        .collect();
+    if on.is_empty() {
+        String::new()
+    } else {
+        format!(", compiled for {}", on.join("+"))
+    }
 }
 
 /// [`build_id`] without the leading "strider ": what `--version` prints after the program's

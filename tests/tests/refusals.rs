@@ -308,6 +308,20 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
         assert_ne!(ours, theirs);
         refused_as_another_build(&channel, "a worker of another architecture", &theirs).await;
 
+        // The same commit compiled for other instruction-set extensions (`-C
+        // target-cpu=native`: rapier's SIMD types fuse their multiply-adds only when
+        // compiled for FMA, measured to change trials' bits): refused, both named.
+        let theirs = match ours.find(", compiled for ") {
+            Some(at) => format!("{})", &ours[..at]),
+            None => format!(
+                "{}, compiled for avx+avx2+fma)",
+                ours.strip_suffix(')')
+                    .unwrap_or_else(|| panic!("{ours} does not end in ')'"))
+            ),
+        };
+        assert_ne!(ours, theirs);
+        refused_as_another_build(&channel, "a worker compiled for other extensions", &theirs).await;
+
         // The same version built from another commit (other physics, perhaps): refused.
         let ours_commit = ours
             .split("(commit ")
