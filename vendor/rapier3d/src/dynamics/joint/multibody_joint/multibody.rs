@@ -1465,9 +1465,6 @@ impl Multibody {
         };
         self.acc_inv_augmented_mass = LU::new(leading(&self.acc_augmented_mass));
         self.inv_augmented_mass = LU::new(leading(&self.augmented_mass));
-        // Strider patch: its factors as plain matrices, for `solve_jacobians`.
-        self.workspace.inv_mass_l = self.inv_augmented_mass.l();
-        self.workspace.inv_mass_u = self.inv_augmented_mass.u();
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
@@ -2098,8 +2095,7 @@ impl Multibody {
         let batched = self.augmented_mass_indices.first_to_remove == IndexSequence::NONE
             && (2..=MAX_ROWS).contains(&rows)
             && (1..=MAX_DOFS).contains(&n)
-            && self.workspace.inv_mass_u.nrows() == n
-            && self.workspace.inv_mass_l.nrows() == n;
+            && self.inv_augmented_mass.lu_internal().nrows() == n;
         if !batched {
             if n == 0 {
                 return;
@@ -2127,8 +2123,11 @@ impl Multibody {
                 xi[c] = *v;
             }
         }
-        let l = self.workspace.inv_mass_l.as_slice();
-        let u = self.workspace.inv_mass_u.as_slice();
+        // Both factors from the LU's packed matrix, as `solve_mut` reads them: `l` below
+        // the diagonal (its unit diagonal implied), `u` on and above it. (nalgebra's `l()`
+        // and `u()` copied them out element by element each step.)
+        let packed = self.inv_augmented_mass.lu_internal().as_slice();
+        let (l, u) = (packed, packed);
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         if std::is_x86_feature_detected!("avx") {
             // SAFETY: the CPU has AVX, checked just above.
@@ -2380,7 +2379,9 @@ fn spatial_product(
 }
 
 /// The rows of [`Multibody::solve_jacobians`] (`x`, row-interleaved) solved against the
-/// unit-lower `l` and upper `u` factors (`n x n`, column-major) of the permuted mass matrix.
+/// unit-lower `l` and upper `u` factors (`n x n`, column-major) of the permuted mass matrix:
+/// only `l`'s entries below the diagonal are read, and only `u`'s on and above it, so both
+/// may be the LU's packed matrix.
 #[inline(always)]
 fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], l: &[Real], u: &[Real]) {
     const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;

@@ -1,7 +1,6 @@
 use crate::alloc_prelude::*;
 use crate::dynamics::RigidBodyVelocity;
 use crate::math::{DVector, Jacobian, Real};
-use na::DMatrix;
 
 /// A temporary workspace for various updates of the multibody.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
@@ -19,11 +18,6 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: one link's nonzero body-Jacobian columns laid out for
     /// `transposed_product_add`, reused across links and steps.
     pub jacobian_rows: Vec<Real>,
-    /// Strider patch: the unit-lower factor of `inv_augmented_mass`'s LU, for the
-    /// contact rows' batched solve (`Multibody::solve_jacobians`).
-    pub inv_mass_l: DMatrix<Real>,
-    /// Strider patch: the upper factor (with its diagonal) of the same LU.
-    pub inv_mass_u: DMatrix<Real>,
 }
 
 impl MultibodyWorkspace {
@@ -36,8 +30,6 @@ impl MultibodyWorkspace {
             jacobian_ranges: Vec::new(),
             mass_work: Jacobian::zeros(0),
             jacobian_rows: Vec::new(),
-            inv_mass_l: DMatrix::zeros(0, 0),
-            inv_mass_u: DMatrix::zeros(0, 0),
         }
     }
 
