@@ -2117,12 +2117,21 @@ impl Multibody {
         let mut buffer = [[0.0 as Real; MAX_ROWS]; MAX_DOFS];
         let x = &mut buffer[..n];
         for (c, &j_id) in j_ids.iter().enumerate() {
-            let mut row = jacobians.rows_mut(j_id + n, n);
-            self.inv_augmented_mass.p().permute_rows(&mut row);
-            for (xi, v) in x.iter_mut().zip(row.iter()) {
+            let row = &jacobians.as_slice()[j_id + n..j_id + 2 * n];
+            for (xi, v) in x.iter_mut().zip(row) {
                 xi[c] = *v;
             }
         }
+        // The LU's row permutation, applied to every row at once: entry i of every row is
+        // `x[i]`, a column of this view.
+        self.inv_augmented_mass
+            .p()
+            .permute_columns(
+                &mut na::MatrixViewMut::<Real, na::Const<MAX_ROWS>, Dyn>::from_slice(
+                    x.as_flattened_mut(),
+                    n,
+                ),
+            );
         // Both factors from the LU's packed matrix, as `solve_mut` reads them: `l` below
         // the diagonal (its unit diagonal implied), `u` on and above it. (nalgebra's `l()`
         // and `u()` copied them out element by element each step.)
