@@ -788,7 +788,9 @@ impl Multibody {
                 parent_to_world = parent_link.local_to_world;
 
                 let (link_j, parent_j) = self.body_jacobians.index_mut_const(i, parent_id);
-                link_j.copy_from(parent_j);
+                // Strider patch: one slice copy (nalgebra's `copy_from` goes element by
+                // element through a strided loop).
+                link_j.as_mut_slice().copy_from_slice(parent_j.as_slice());
 
                 {
                     let mut link_j_v = link_j.fixed_rows_mut::<DIM>(0);
@@ -1295,11 +1297,16 @@ impl Multibody {
                 let vel_wrt_joint_w = vect_to_na(link.joint_velocity.angvel).gcross_matrix();
 
                 for &(s, n) in ranges {
+                    // The parent's columns, as one slice copy each (3-row matrices: the
+                    // columns `s..s + n` are contiguous).
+                    coriolis_v.as_mut_slice()[DIM * s..DIM * (s + n)]
+                        .copy_from_slice(&parent_coriolis_v.as_slice()[DIM * s..DIM * (s + n)]);
+                    coriolis_w.as_mut_slice()[ANG_DIM * s..ANG_DIM * (s + n)].copy_from_slice(
+                        &parent_coriolis_w.as_slice()[ANG_DIM * s..ANG_DIM * (s + n)],
+                    );
                     let mut cv = coriolis_v.columns_mut(s, n);
                     let mut cw = coriolis_w.columns_mut(s, n);
                     let pj_w = parent_j_w.columns(s, n);
-                    cv.copy_from(&parent_coriolis_v.columns(s, n));
-                    cw.copy_from(&parent_coriolis_w.columns(s, n));
 
                     // [c1 - c0].gcross() * (JDot + JDot/u * qdot)"
                     cv.gemm(1.0, &shift_cross_tr, &parent_coriolis_w.columns(s, n), 1.0);
