@@ -1376,11 +1376,15 @@ impl Multibody {
             let rb_mass_dt = vect_to_na(rb_mass * dt);
             for &(s, n) in ranges {
                 {
-                    let mut i_coriolis_dt_v = self.i_coriolis_dt.view_mut((0, s), (DIM, n));
-                    i_coriolis_dt_v.copy_from(&coriolis_v.columns(s, n));
-                    i_coriolis_dt_v
-                        .column_iter_mut()
-                        .for_each(|mut c| c.component_mul_assign(&rb_mass_dt));
+                    // Strider patch: copied and scaled in one pass over the slices (the same
+                    // product per entry as the copy then `component_mul_assign`).
+                    let icd = self.i_coriolis_dt.as_mut_slice();
+                    let cv = coriolis_v.as_slice();
+                    for c in s..s + n {
+                        for r in 0..DIM {
+                            icd[c * SPATIAL_DIM + r] = cv[c * DIM + r] * rb_mass_dt[r];
+                        }
+                    }
                 }
 
                 #[cfg(feature = "dim2")]
