@@ -194,9 +194,9 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         not_measured => {
             // MAX's physics step, s of one core: 83 us at 4948ba9, which the run-to-estimate
             // ratios below were measured against; the step got 0.755x as dear at 86fe310
-            // with the same bits (its calibration 73.5 ms against 97.3 ms, BENCHMARKS.md),
-            // and runs with it, so the ratios stand.
-            let per_trial = plain_trial / e.run.physics_dt() * 0.063e-3;
+            // and 0.79x as dear again since, with the same bits (calibrations 97.3 ->
+            // 73.5 -> 57.6 ms, BENCHMARKS.md), and runs with it, so the ratios stand.
+            let per_trial = plain_trial / e.run.physics_dt() * 0.050e-3;
             let why = match not_measured {
                 None => "--no-calibration",
                 _ => "this build has no simulator",
