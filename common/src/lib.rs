@@ -64,7 +64,9 @@ pub fn build_id() -> String {
 
 /// The instruction-set extensions this build was compiled to assume beyond the
 /// architecture's baseline (`RUSTFLAGS="-C target-cpu=native"` and the like), as
-/// `", compiled for avx+avx2+fma"`, or nothing for a default build. They belong in the
+/// `", compiled for avx+avx2+fma"`, or nothing for a default build on x86-64 Linux (whose
+/// baseline is SSE2; a target with more in its baseline, as x86-64 macOS with SSE3, names
+/// those even by default). They belong in the
 /// build's identity: dependencies choose their arithmetic by them at compile time (`wide`,
 /// whose SIMD types rapier uses, fuses its multiply-adds only when compiled for `fma`), so
 /// the same commit simulates differently (measured: a build for `x86-64-v3` changes the
@@ -79,7 +81,12 @@ fn compiled_for() -> String {
         ("fma", cfg!(target_feature = "fma")),
         ("avx512f", cfg!(target_feature = "avx512f")),
     ];
-    let on: Vec<&str> = EXTENSIONS
+    describe_extensions(&EXTENSIONS)
+}
+
+/// `", compiled for a+b"` for the extensions that are on, or nothing if none is.
+fn describe_extensions(extensions: &[(&str, bool)]) -> String {
+    let on: Vec<&str> = extensions
         .iter()
         .filter(|(_, on)| *on)
         .map(|(name, _)| *name)
@@ -88,6 +95,39 @@ fn compiled_for() -> String {
         String::new()
     } else {
         format!(", compiled for {}", on.join("+"))
+    }
+}
+
+#[cfg(test)]
+mod build_id_tests {
+    use super::{build_id, compiled_for, describe_extensions};
+
+    #[test]
+    fn extensions_named_only_when_on() {
+        assert_eq!(
+            describe_extensions(&[("sse3", false), ("avx", true), ("fma", true)]),
+            ", compiled for avx+fma"
+        );
+        assert_eq!(describe_extensions(&[("avx", false), ("fma", false)]), "");
+    }
+
+    /// The identity carries the suffix inside its parentheses, last.
+    #[test]
+    fn identity_ends_with_the_extensions() {
+        let id = build_id();
+        assert!(id.ends_with(&format!("{})", compiled_for())), "{id}");
+    }
+
+    /// The project's own builds (CI, the README, deploy/) are default builds: on x86-64
+    /// Linux they name no extension, so their identity is what it was before extensions
+    /// were named. Fails if a build setting (say `.cargo/config.toml`) turns on more; set
+    /// `STRIDER_EXPECT_EXTENSIONS` to run the tests of a build made for more on purpose.
+    #[cfg(all(target_arch = "x86_64", target_os = "linux"))]
+    #[test]
+    fn a_default_linux_build_names_no_extension() {
+        if std::env::var_os("STRIDER_EXPECT_EXTENSIONS").is_none() {
+            assert_eq!(compiled_for(), "");
+        }
     }
 }
 
