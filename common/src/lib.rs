@@ -98,39 +98,6 @@ fn describe_extensions(extensions: &[(&str, bool)]) -> String {
     }
 }
 
-#[cfg(test)]
-mod build_id_tests {
-    use super::{build_id, compiled_for, describe_extensions};
-
-    #[test]
-    fn extensions_named_only_when_on() {
-        assert_eq!(
-            describe_extensions(&[("sse3", false), ("avx", true), ("fma", true)]),
-            ", compiled for avx+fma"
-        );
-        assert_eq!(describe_extensions(&[("avx", false), ("fma", false)]), "");
-    }
-
-    /// The identity carries the suffix inside its parentheses, last.
-    #[test]
-    fn identity_ends_with_the_extensions() {
-        let id = build_id();
-        assert!(id.ends_with(&format!("{})", compiled_for())), "{id}");
-    }
-
-    /// The project's own builds (CI, the README, deploy/) are default builds: on x86-64
-    /// Linux they name no extension, so their identity is what it was before extensions
-    /// were named. Fails if a build setting (say `.cargo/config.toml`) turns on more; set
-    /// `STRIDER_EXPECT_EXTENSIONS` to run the tests of a build made for more on purpose.
-    #[cfg(all(target_arch = "x86_64", target_os = "linux"))]
-    #[test]
-    fn a_default_linux_build_names_no_extension() {
-        if std::env::var_os("STRIDER_EXPECT_EXTENSIONS").is_none() {
-            assert_eq!(compiled_for(), "");
-        }
-    }
-}
-
 /// [`build_id`] without the leading "strider ": what `--version` prints after the program's
 /// name. Computed once (it asks the CPU) and kept for the program's life, as clap wants.
 pub fn build_version() -> &'static str {
@@ -161,5 +128,38 @@ pub fn cpu_arithmetic() -> Option<&'static str> {
     #[cfg(not(target_arch = "x86_64"))]
     {
         None
+    }
+}
+
+#[cfg(test)]
+mod build_id_tests {
+    use super::{build_id, compiled_for, describe_extensions};
+
+    #[test]
+    fn extensions_named_only_when_on() {
+        assert_eq!(
+            describe_extensions(&[("sse3", false), ("avx", true), ("fma", true)]),
+            ", compiled for avx+fma"
+        );
+        assert_eq!(describe_extensions(&[("avx", false), ("fma", false)]), "");
+    }
+
+    /// The identity carries the suffix inside its parentheses, last.
+    #[test]
+    fn identity_ends_with_the_extensions() {
+        let id = build_id();
+        assert!(id.ends_with(&format!("{})", compiled_for())), "{id}");
+    }
+
+    /// The project's own builds (CI, the README, deploy/) are default builds: on x86-64
+    /// Linux they name no extension, so their identity is what it was before extensions
+    /// were named. Fails if a build setting (say `.cargo/config.toml`) turns on more; set
+    /// `STRIDER_EXPECT_EXTENSIONS` to run the tests of a build made for more on purpose.
+    #[cfg(all(target_arch = "x86_64", target_os = "linux"))]
+    #[test]
+    fn a_default_linux_build_names_no_extension() {
+        if std::env::var_os("STRIDER_EXPECT_EXTENSIONS").is_none() {
+            assert_eq!(compiled_for(), "");
+        }
     }
 }
