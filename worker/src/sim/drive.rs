@@ -323,7 +323,11 @@ mod tests {
             stepper.step(&mut rw, dt, &targets);
             let mut bits = Vec::new();
             state_bits(&rw, dt, &mut bits);
-            bits.extend(stepper.torques.iter().map(|t| t.to_bits() as u32));
+            // Each f64 torque whole, as two 32-bit words.
+            bits.extend(stepper.torques.iter().flat_map(|t| {
+                let b = t.to_bits();
+                [b as u32, (b >> 32) as u32]
+            }));
             states.push(bits);
         }
         (states, stepper)
