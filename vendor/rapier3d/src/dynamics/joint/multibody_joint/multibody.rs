@@ -7,16 +7,17 @@ use crate::dynamics::{
     IntegrationParameters, RigidBodyHandle, RigidBodySet, RigidBodyType, RigidBodyVelocity,
 };
 use crate::math::{
-    ANG_DIM, AngDim, AngVector, DIM, DVector, Dim, Jacobian, Pose, Real, SPATIAL_DIM,
-    SimdAngVector, Vector,
+    ANG_DIM, AngVector, DIM, DVector, Jacobian, Pose, Real, SPATIAL_DIM, SimdAngVector, Vector,
 };
+#[cfg(test)]
+use crate::math::{AngDim, Dim};
 use crate::prelude::MultibodyJoint;
 #[cfg(feature = "dim3")]
 use crate::utils::mat_to_na;
 use crate::utils::{AngularInertiaOps, CrossProduct, CrossProductMatrix, IndexMut2, vect_to_na};
-use na::{
-    self, DMatrix, DVectorView, DVectorViewMut, Dyn, LU, OMatrix, SMatrix, SVector, StorageMut,
-};
+#[cfg(test)]
+use na::OMatrix;
+use na::{self, DMatrix, DVectorView, DVectorViewMut, Dyn, LU, SMatrix, SVector, StorageMut};
 
 #[cfg(doc)]
 use crate::prelude::{GenericJoint, RigidBody};
@@ -131,9 +132,6 @@ pub struct Multibody {
      * Workspaces.
      */
     workspace: MultibodyWorkspace,
-    coriolis_v: Vec<OMatrix<Real, Dim, Dyn>>,
-    coriolis_w: Vec<OMatrix<Real, AngDim, Dyn>>,
-    i_coriolis_dt: Jacobian<Real>,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -164,9 +162,6 @@ impl Multibody {
             ndofs: 0,
             solver_id: 0,
             workspace: MultibodyWorkspace::new(),
-            coriolis_v: Vec::new(),
-            coriolis_w: Vec::new(),
-            i_coriolis_dt: Jacobian::zeros(0),
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -890,9 +885,16 @@ impl Multibody {
 
     /// The upstream dense assembly, the reference the sparse one is tested against.
     #[cfg(test)]
-    fn update_mass_matrix_dense(&mut self, dt: Real, bodies: &RigidBodySet) {
+    fn update_mass_matrix_dense(
+        &mut self,
+        dt: Real,
+        bodies: &RigidBodySet,
+    ) -> (
+        Vec<OMatrix<Real, Dim, Dyn>>,
+        Vec<OMatrix<Real, AngDim, Dyn>>,
+    ) {
         if self.ndofs == 0 {
-            return; // Nothing to do.
+            return (Vec::new(), Vec::new()); // Nothing to do.
         }
 
         if self.augmented_mass.ncols() != self.ndofs {
@@ -906,14 +908,10 @@ impl Multibody {
 
         self.augmented_mass_indices.clear();
 
-        // Resize coriolis workspaces if the link count or number of DOFs change.
-        let coriolis_ndofs = self.coriolis_v.first().map(|m| m.ncols());
-        if self.coriolis_v.len() != self.links.len() || coriolis_ndofs != Some(self.ndofs) {
-            self.coriolis_v = vec![OMatrix::<Real, Dim, Dyn>::zeros(self.ndofs); self.links.len()];
-            self.coriolis_w =
-                vec![OMatrix::<Real, AngDim, Dyn>::zeros(self.ndofs); self.links.len()];
-            self.i_coriolis_dt = Jacobian::zeros(self.ndofs);
-        }
+        // Strider patch: upstream's Coriolis workspaces, here only (returned for the tests).
+        let mut cor_v = vec![OMatrix::<Real, Dim, Dyn>::zeros(self.ndofs); self.links.len()];
+        let mut cor_w = vec![OMatrix::<Real, AngDim, Dyn>::zeros(self.ndofs); self.links.len()];
+        let mut i_coriolis_dt = Jacobian::zeros(self.ndofs);
 
         let mut curr_assembly_id = 0;
 
@@ -984,8 +982,8 @@ impl Multibody {
                 let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
                 let parent_w = SimdAngVector::<Real>::from(parent_rb.vels.angvel).gcross_matrix();
 
-                let (coriolis_v, parent_coriolis_v) = self.coriolis_v.index_mut2(i, parent_id);
-                let (coriolis_w, parent_coriolis_w) = self.coriolis_w.index_mut2(i, parent_id);
+                let (coriolis_v, parent_coriolis_v) = cor_v.index_mut2(i, parent_id);
+                let (coriolis_w, parent_coriolis_w) = cor_w.index_mut2(i, parent_id);
 
                 coriolis_v.copy_from(parent_coriolis_v);
                 coriolis_w.copy_from(parent_coriolis_w);
@@ -1039,12 +1037,12 @@ impl Multibody {
                     }
                 }
             } else {
-                self.coriolis_v[i].fill(0.0);
-                self.coriolis_w[i].fill(0.0);
+                cor_v[i].fill(0.0);
+                cor_w[i].fill(0.0);
             }
 
-            let coriolis_v = &mut self.coriolis_v[i];
-            let coriolis_w = &mut self.coriolis_w[i];
+            let coriolis_v = &mut cor_v[i];
+            let coriolis_w = &mut cor_w[i];
 
             {
                 // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
@@ -1064,14 +1062,14 @@ impl Multibody {
                 );
             }
 
-            let coriolis_v = &mut self.coriolis_v[i];
-            let coriolis_w = &mut self.coriolis_w[i];
+            let coriolis_v = &mut cor_v[i];
+            let coriolis_w = &mut cor_w[i];
 
             /*
              * Meld with the mass matrix.
              */
             {
-                let mut i_coriolis_dt_v = self.i_coriolis_dt.fixed_rows_mut::<DIM>(0);
+                let mut i_coriolis_dt_v = i_coriolis_dt.fixed_rows_mut::<DIM>(0);
                 i_coriolis_dt_v.copy_from(coriolis_v);
                 let rb_mass_dt = vect_to_na(rb_mass * dt);
                 i_coriolis_dt_v
@@ -1081,18 +1079,18 @@ impl Multibody {
 
             #[cfg(feature = "dim2")]
             {
-                let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
+                let mut i_coriolis_dt_w = i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
                 // NOTE: this is just an axpy, but on row columns.
                 i_coriolis_dt_w.zip_apply(coriolis_w, |o, x| *o = x * dt * rb_inertia);
             }
             #[cfg(feature = "dim3")]
             {
-                let mut i_coriolis_dt_w = self.i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
+                let mut i_coriolis_dt_w = i_coriolis_dt.fixed_rows_mut::<ANG_DIM>(DIM);
                 i_coriolis_dt_w.gemm(dt, &mat_to_na(rb_inertia), coriolis_w, 0.0);
             }
 
             self.acc_augmented_mass
-                .gemm_tr(1.0, rb_j, &self.i_coriolis_dt, 1.0);
+                .gemm_tr(1.0, rb_j, &i_coriolis_dt, 1.0);
         }
 
         /*
@@ -1156,6 +1154,7 @@ impl Multibody {
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
         );
+        (cor_v, cor_w)
     }
 
     pub(crate) fn update_mass_matrix(&mut self, dt: Real, bodies: &RigidBodySet) {
@@ -1174,15 +1173,6 @@ impl Multibody {
 
         self.augmented_mass_indices.clear();
 
-        // Resize coriolis workspaces if the link count or number of DOFs change.
-        let coriolis_ndofs = self.coriolis_v.first().map(|m| m.ncols());
-        if self.coriolis_v.len() != self.links.len() || coriolis_ndofs != Some(self.ndofs) {
-            self.coriolis_v = vec![OMatrix::<Real, Dim, Dyn>::zeros(self.ndofs); self.links.len()];
-            self.coriolis_w =
-                vec![OMatrix::<Real, AngDim, Dyn>::zeros(self.ndofs); self.links.len()];
-            self.i_coriolis_dt = Jacobian::zeros(self.ndofs);
-        }
-
         let mut curr_assembly_id = 0;
 
         // Strider patch: a link's body Jacobian is zero outside the columns of its own and
@@ -1191,13 +1181,19 @@ impl Multibody {
         // `ndofs x ndofs` products (docs/rapier.md, "Mass-matrix sparsity").
         let mut col_ranges = core::mem::take(&mut self.workspace.col_ranges);
         link_column_ranges(&self.links, &mut col_ranges);
-        let mut work = core::mem::take(&mut self.workspace.mass_work);
+        // `M J` for each of the two mass matrices.
+        let [mut work, mut acc_work] = core::mem::take(&mut self.workspace.mass_work);
         if work.ncols() != self.ndofs {
             work = Jacobian::zeros(self.ndofs);
+            acc_work = Jacobian::zeros(self.ndofs);
         }
-        // The body Jacobian of the link at hand, its nonzero columns laid out for
-        // `transposed_product_add`.
-        let mut jt = core::mem::take(&mut self.workspace.jacobian_rows);
+        // Each link's body Jacobian, its nonzero columns laid out for
+        // `transposed_product_add` (a child reads its parent's for its Coriolis terms),
+        // and its Coriolis terms in the same layout.
+        let mut jt = core::mem::take(&mut self.workspace.jacobian_blocks);
+        jt.resize_with(self.links.len(), Vec::new);
+        let mut coriolis = core::mem::take(&mut self.workspace.coriolis);
+        coriolis.resize_with(self.links.len(), Vec::new);
         let ld = self.ndofs;
 
         for i in 0..self.links.len() {
@@ -1245,45 +1241,37 @@ impl Multibody {
             #[allow(clippy::useless_conversion)] // Needed in 3D, no-op in 2D
             let rb_mass_matrix = concat_rb_mass_matrix(rb_mass, augmented_inertia.into());
             let ranges = &col_ranges[i];
-            transpose_columns(&mut jt, body_jacobian, ranges);
+            transpose_columns(&mut jt[i], body_jacobian, ranges);
             for &(sb, nb) in ranges {
                 spatial_product(&mut work, &rb_mass_matrix_wo_gyro, body_jacobian, sb, nb);
+                spatial_product(&mut acc_work, &rb_mass_matrix, body_jacobian, sb, nb);
             }
-            transposed_product_add(self.augmented_mass.as_mut_slice(), ld, &jt, &work, ranges);
-            for &(sb, nb) in ranges {
-                spatial_product(&mut work, &rb_mass_matrix, body_jacobian, sb, nb);
-            }
-            transposed_product_add(
-                self.acc_augmented_mass.as_mut_slice(),
-                ld,
-                &jt,
-                &work,
-                ranges,
-            );
 
             /*
              *
              * Coriolis matrix.
              *
              */
-            let rb_j = &self.body_jacobians[i];
-            let rb_j_w = rb_j.fixed_rows::<ANG_DIM>(DIM);
-            let ranges = &col_ranges[i];
-
+            // Strider patch: the link's Coriolis terms (`coriolis_v` over `coriolis_w`)
+            // over its nonzero columns only, in `jt`'s layout (blocks of `LANES` columns
+            // side by side), so each 3x3 product below runs `LANES` columns at a time. A
+            // parent's columns are the first of its child's (`link_column_ranges`), so
+            // parent and child blocks line up. Outside a link's columns upstream's dense
+            // terms are +0; each entry inside has nalgebra's `gemm` arithmetic (column by
+            // column through `gemv`, see `add_product`): the same bits.
             let ndofs = link.joint.ndofs();
-
-            // Strider patch: every product below restricted to the link's nonzero columns
-            // (`ranges`); outside them the link's Coriolis workspaces stay zero.
-            if i != 0 {
+            let width: usize = ranges.iter().map(|r| r.1).sum();
+            let mut cor = core::mem::take(&mut coriolis[i]);
+            // Every entry is written below (the root's zeroed).
+            cor.resize(jt[i].len(), 0.0);
+            if i == 0 {
+                cor.fill(0.0);
+            } else {
                 let parent_id = link.parent_internal_id;
                 let parent_link = &self.links[parent_id];
                 let parent_rb = &bodies[parent_link.rigid_body];
-                let parent_j = &self.body_jacobians[parent_id];
-                let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
                 let parent_w = SimdAngVector::<Real>::from(parent_rb.vels.angvel).gcross_matrix();
-
-                let (coriolis_v, parent_coriolis_v) = self.coriolis_v.index_mut2(i, parent_id);
-                let (coriolis_w, parent_coriolis_w) = self.coriolis_w.index_mut2(i, parent_id);
+                let parent_width: usize = col_ranges[parent_id].iter().map(|r| r.1).sum();
 
                 let shift_cross_tr = vect_to_na(link.shift02).gcross_matrix_tr();
                 // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
@@ -1293,38 +1281,27 @@ impl Multibody {
                 .gcross_matrix_tr();
                 let lin_cross = vect_to_na(link.joint_velocity.linvel).gcross_matrix_tr();
                 let parent_w_shift = parent_w * shift_cross_tr;
-                #[cfg(feature = "dim3")]
                 let vel_wrt_joint_w = vect_to_na(link.joint_velocity.angvel).gcross_matrix();
 
-                for &(s, n) in ranges {
-                    // The parent's columns, as one slice copy each (3-row matrices: the
-                    // columns `s..s + n` are contiguous).
-                    coriolis_v.as_mut_slice()[DIM * s..DIM * (s + n)]
-                        .copy_from_slice(&parent_coriolis_v.as_slice()[DIM * s..DIM * (s + n)]);
-                    coriolis_w.as_mut_slice()[ANG_DIM * s..ANG_DIM * (s + n)].copy_from_slice(
-                        &parent_coriolis_w.as_slice()[ANG_DIM * s..ANG_DIM * (s + n)],
-                    );
-                    let mut cv = coriolis_v.columns_mut(s, n);
-                    let mut cw = coriolis_w.columns_mut(s, n);
-                    let pj_w = parent_j_w.columns(s, n);
-
-                    // [c1 - c0].gcross() * (JDot + JDot/u * qdot)"
-                    cv.gemm(1.0, &shift_cross_tr, &parent_coriolis_w.columns(s, n), 1.0);
-                    cv.gemm(1.0, &dvel_cross, &pj_w, 1.0);
-                    // JDot/u * qdot
-                    cv.gemm(1.0, &lin_cross, &pj_w, 1.0);
-                    cv.gemm(1.0, &parent_w_shift, &pj_w, 1.0);
-
-                    #[cfg(feature = "dim3")]
-                    {
-                        cw.gemm(-1.0, &vel_wrt_joint_w, &pj_w, 1.0);
-                    }
-                }
+                // cv = parent cv + [c1 - c0].gcross() * parent cw (JDot + JDot/u * qdot)
+                //      + dvel_cross, lin_cross and parent_w_shift times parent jw in turn;
+                // cw = parent cw - vel_wrt_joint_w * parent jw.
+                coriolis_from_parent(
+                    &mut cor,
+                    &coriolis[parent_id],
+                    &jt[parent_id],
+                    parent_width,
+                    &[
+                        scaled(1.0, &shift_cross_tr),
+                        scaled(1.0, &dvel_cross),
+                        scaled(1.0, &lin_cross),
+                        scaled(1.0, &parent_w_shift),
+                        scaled(-1.0, &vel_wrt_joint_w),
+                    ],
+                );
 
                 // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
                 if !link.joint.kinematic {
-                    let mut coriolis_v_part = coriolis_v.columns_mut(link.assembly_id, ndofs);
-
                     let mut tmp1 = SMatrix::<Real, SPATIAL_DIM, SPATIAL_DIM>::zeros();
                     let mut rb_joint_j = tmp1.columns_mut(0, ndofs);
                     link.joint.jacobian(
@@ -1332,87 +1309,72 @@ impl Multibody {
                             * link.joint.data.local_frame1.rotation),
                         &mut rb_joint_j,
                     );
-
-                    let rb_joint_j_v = rb_joint_j.fixed_rows::<DIM>(0);
-                    coriolis_v_part.gemm(2.0, &parent_w, &rb_joint_j_v, 1.0);
-
-                    #[cfg(feature = "dim3")]
-                    {
-                        let rb_joint_j_w = rb_joint_j.fixed_rows::<ANG_DIM>(DIM);
-                        let mut coriolis_w_part = coriolis_w.columns_mut(link.assembly_id, ndofs);
-                        coriolis_w_part.gemm(1.0, &parent_w, &rb_joint_j_w, 1.0);
+                    // The link's own dofs are its last columns.
+                    let (w2, w1) = (scaled(2.0, &parent_w), scaled(1.0, &parent_w));
+                    for d in 0..ndofs {
+                        let a = width - ndofs + d;
+                        let (block, lane) = (a / LANES, a % LANES);
+                        for (w, row0) in [(&w2, 0), (&w1, DIM)] {
+                            for k in 0..3 {
+                                for (r, wr) in w.iter().enumerate() {
+                                    let y =
+                                        &mut cor[(block * SPATIAL_DIM + row0 + r) * LANES + lane];
+                                    *y = wr[k] * rb_joint_j[(row0 + k, d)] + *y;
+                                }
+                            }
+                        }
                     }
                 }
-            } else {
-                self.coriolis_v[i].as_mut_slice().fill(0.0);
-                self.coriolis_w[i].as_mut_slice().fill(0.0);
             }
 
-            let coriolis_v = &mut self.coriolis_v[i];
-            let coriolis_w = &mut self.coriolis_w[i];
-
-            {
-                // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
-                let shift_cross_tr = vect_to_na(link.shift23).gcross_matrix_tr();
-                // JDot
-                let dvel_cross = vect_to_na(rb.vels.angvel.gcross(link.shift23)).gcross_matrix_tr();
-                // JDot/u * qdot
-                let w_shift =
-                    SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix() * shift_cross_tr;
-                for &(s, n) in ranges {
-                    let mut cv = coriolis_v.columns_mut(s, n);
-                    let rj_w = rb_j_w.columns(s, n);
-                    cv.gemm(1.0, &shift_cross_tr, &coriolis_w.columns(s, n), 1.0);
-                    cv.gemm(1.0, &dvel_cross, &rj_w, 1.0);
-                    cv.gemm(1.0, &w_shift, &rj_w, 1.0);
-                }
-            }
+            // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
+            let shift_cross_tr = vect_to_na(link.shift23).gcross_matrix_tr();
+            // JDot
+            let dvel_cross = vect_to_na(rb.vels.angvel.gcross(link.shift23)).gcross_matrix_tr();
+            // JDot/u * qdot
+            let w_shift =
+                SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix() * shift_cross_tr;
 
             /*
              * Meld with the mass matrix.
              */
-            #[cfg(feature = "dim3")]
-            let rb_inertia_na = mat_to_na(rb_inertia);
-            let rb_mass_dt = vect_to_na(rb_mass * dt);
-            for &(s, n) in ranges {
-                {
-                    // Strider patch: copied and scaled in one pass over the slices (the same
-                    // product per entry as the copy then `component_mul_assign`).
-                    let icd = self.i_coriolis_dt.as_mut_slice();
-                    let cv = coriolis_v.as_slice();
-                    for c in s..s + n {
-                        for r in 0..DIM {
-                            icd[c * SPATIAL_DIM + r] = cv[c * DIM + r] * rb_mass_dt[r];
-                        }
-                    }
-                }
+            let rb_mass_dt = rb_mass * dt;
+            let mut icd = core::mem::take(&mut self.workspace.coriolis_dt);
+            // Every entry is written by `coriolis_meld`.
+            icd.resize(cor.len(), 0.0);
+            coriolis_meld(
+                &mut cor,
+                &jt[i],
+                &[
+                    scaled(1.0, &shift_cross_tr),
+                    scaled(1.0, &dvel_cross),
+                    scaled(1.0, &w_shift),
+                ],
+                [rb_mass_dt.x, rb_mass_dt.y, rb_mass_dt.z],
+                &scaled(dt, &mat_to_na(rb_inertia)),
+                &mut icd,
+            );
+            coriolis[i] = cor;
 
-                #[cfg(feature = "dim2")]
-                {
-                    let mut i_coriolis_dt_w = self.i_coriolis_dt.view_mut((DIM, s), (ANG_DIM, n));
-                    // NOTE: this is just an axpy, but on row columns.
-                    i_coriolis_dt_w
-                        .zip_apply(&coriolis_w.columns(s, n), |o, x| *o = x * dt * rb_inertia);
-                }
-                #[cfg(feature = "dim3")]
-                {
-                    let mut i_coriolis_dt_w = self.i_coriolis_dt.view_mut((DIM, s), (ANG_DIM, n));
-                    i_coriolis_dt_w.gemm(dt, &rb_inertia_na, &coriolis_w.columns(s, n), 0.0);
-                }
-            }
-
-            // `jt` still holds this link's body Jacobian (`rb_j`), laid out.
-            transposed_product_add(
-                self.acc_augmented_mass.as_mut_slice(),
+            // `Jᵀ M J` into the mass matrix, `Jᵀ M' J` then `Jᵀ (I C dt)` into the one with
+            // the gyroscopic and Coriolis terms, in one pass over `J`.
+            transposed_products_add(
+                [
+                    self.augmented_mass.as_mut_slice(),
+                    self.acc_augmented_mass.as_mut_slice(),
+                ],
                 ld,
-                &jt,
-                &self.i_coriolis_dt,
+                &jt[i],
+                [work.as_slice(), acc_work.as_slice()],
+                &icd,
                 ranges,
             );
+            self.workspace.coriolis_dt = icd;
         }
         self.workspace.col_ranges = col_ranges;
-        self.workspace.mass_work = work;
-        self.workspace.jacobian_rows = jt;
+        self.workspace.mass_work = [work, acc_work];
+        self.workspace.jacobian_blocks = jt;
+        self.workspace.coriolis = coriolis;
 
         /*
          * Damping and armature.
@@ -2501,87 +2463,313 @@ fn transpose_columns(jt: &mut Vec<Real>, j: &Jacobian<Real>, ranges: &[(usize, u
     }
 }
 
-/// `out[(a, b)] += j[.., a] · w[.., b]` for every `a` and `b` in `ranges` (`out`
-/// column-major with `ld` rows, `jt` the columns of `j` from [`transpose_columns`]): the
-/// blocks nalgebra's `gemm_tr(1.0, j.columns(..), w.columns(..), 1.0)` gave, with its
-/// arithmetic per entry (a dot product summed in row order from +0, unfused, then added
-/// to the entry), so the same bits; laid out so the compiler computes [`LANES`] entries side
-/// by side, where nalgebra's dot products went one entry at a time.
+/// For every `a` and `b` in `ranges`: `outs[0][(a, b)] += j[.., a] · ws[0][.., b]`, then
+/// `outs[1][(a, b)] += j[.., a] · ws[1][.., b]` and `+= j[.., a] · c[.., b]` (`outs`
+/// column-major with `ld` rows; `jt` the columns of `j` from [`transpose_columns`], `ws`
+/// column-major `SPATIAL_DIM x ndofs`, `c` in `jt`'s layout). These are the blocks
+/// nalgebra's `gemm_tr(1.0, j.columns(..), w.columns(..), 1.0)` gave, with its arithmetic
+/// per entry (a dot product summed in row order from +0, unfused, then added to the entry),
+/// and in the order upstream added them, so the same bits; laid out so the compiler computes
+/// [`LANES`] entries side by side, where nalgebra's dot products went one entry at a time,
+/// and `j` read once for the three.
 #[inline]
-fn transposed_product_add(
-    out: &mut [Real],
+fn transposed_products_add(
+    outs: [&mut [Real]; 2],
     ld: usize,
     jt: &[Real],
-    w: &Jacobian<Real>,
+    ws: [&[Real]; 2],
+    c: &[Real],
     ranges: &[(usize, usize)],
 ) {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if std::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX, checked just above.
-        unsafe { transposed_product_add_avx(out, ld, jt, w.as_slice(), ranges) };
+        unsafe { transposed_products_add_avx(outs, ld, jt, ws, c, ranges) };
         return;
     }
-    transposed_product_add_any(out, ld, jt, w.as_slice(), ranges);
+    transposed_products_add_any(outs, ld, jt, ws, c, ranges);
 }
 
-/// [`transposed_product_add_any`] compiled for CPUs with AVX (no FMA, so each entry's
+/// [`transposed_products_add_any`] compiled for CPUs with AVX (no FMA, so each entry's
 /// arithmetic is unchanged).
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[target_feature(enable = "avx")]
-unsafe fn transposed_product_add_avx(
-    out: &mut [Real],
+unsafe fn transposed_products_add_avx(
+    outs: [&mut [Real]; 2],
     ld: usize,
     jt: &[Real],
-    w: &[Real],
+    ws: [&[Real]; 2],
+    c: &[Real],
     ranges: &[(usize, usize)],
 ) {
-    transposed_product_add_any(out, ld, jt, w, ranges)
+    transposed_products_add_any(outs, ld, jt, ws, c, ranges)
 }
 
 #[inline(always)]
-fn transposed_product_add_any(
-    out: &mut [Real],
+fn transposed_products_add_any(
+    outs: [&mut [Real]; 2],
     ld: usize,
     jt: &[Real],
-    w: &[Real],
+    ws: [&[Real]; 2],
+    c: &[Real],
     ranges: &[(usize, usize)],
 ) {
     const D: usize = SPATIAL_DIM;
-    // One output column's entries over `ranges`, side by side (at most 4 blocks on the
-    // stack: 32 columns, more than any link here has; longer ones take the heap).
+    let [out0, out1] = outs;
+    // One output column's entries over `ranges`, side by side, for each of the three
+    // products (at most 4 blocks each on the stack: 32 columns, more than any link here
+    // has; longer ones take the heap).
     let blocks = jt.len() / (D * LANES);
-    let mut stack = [[0.0 as Real; LANES]; 4];
+    let mut stack = [[0.0 as Real; LANES]; 12];
     let mut heap = Vec::new();
-    let dots: &mut [[Real; LANES]] = if blocks <= stack.len() {
-        &mut stack[..blocks]
+    let dots: &mut [[Real; LANES]] = if 3 * blocks <= stack.len() {
+        &mut stack[..3 * blocks]
     } else {
-        heap.resize(blocks, [0.0 as Real; LANES]);
+        heap.resize(3 * blocks, [0.0 as Real; LANES]);
         &mut heap
     };
+    let (dots0, rest) = dots.split_at_mut(blocks);
+    let (dots1, dots2) = rest.split_at_mut(blocks);
+    let mut bc = 0;
     for &(sb, nb) in ranges {
         for b in sb..sb + nb {
-            let wb = &w[b * D..b * D + D];
-            for (block, dot) in dots.iter_mut().enumerate() {
+            let w0 = &ws[0][b * D..b * D + D];
+            let w1 = &ws[1][b * D..b * D + D];
+            let (cblock, clane) = (bc / LANES, bc % LANES);
+            let wc: [Real; D] = core::array::from_fn(|k| c[(cblock * D + k) * LANES + clane]);
+            bc += 1;
+            for block in 0..blocks {
                 let rows = &jt[block * D * LANES..(block + 1) * D * LANES];
-                let mut acc = [0.0 as Real; LANES];
+                let mut acc = [[0.0 as Real; LANES]; 3];
                 for k in 0..D {
                     let row = &rows[k * LANES..k * LANES + LANES];
                     for l in 0..LANES {
-                        acc[l] += row[l] * wb[k];
+                        acc[0][l] += row[l] * w0[k];
+                        acc[1][l] += row[l] * w1[k];
+                        acc[2][l] += row[l] * wc[k];
                     }
                 }
-                *dot = acc;
+                dots0[block] = acc[0];
+                dots1[block] = acc[1];
+                dots2[block] = acc[2];
             }
-            let flat = dots.as_flattened();
-            let out_b = &mut out[b * ld..b * ld + ld];
+            let (flat0, flat1, flat2) = (
+                dots0.as_flattened(),
+                dots1.as_flattened(),
+                dots2.as_flattened(),
+            );
+            let out0_b = &mut out0[b * ld..b * ld + ld];
+            let out1_b = &mut out1[b * ld..b * ld + ld];
             let mut a = 0;
             for &(sa, na_) in ranges {
-                for (o, d) in out_b[sa..sa + na_].iter_mut().zip(&flat[a..a + na_]) {
+                for (o, d) in out0_b[sa..sa + na_].iter_mut().zip(&flat0[a..a + na_]) {
                     *o += *d;
+                }
+                for ((o, d1), d2) in out1_b[sa..sa + na_]
+                    .iter_mut()
+                    .zip(&flat1[a..a + na_])
+                    .zip(&flat2[a..a + na_])
+                {
+                    *o = (*o + *d1) + *d2;
                 }
                 a += na_;
             }
         }
+    }
+}
+
+/// Three rows of [`LANES`] columns side by side: rows `0..3` or `3..6` of one block of a
+/// layout from [`transpose_columns`].
+type Rows3 = [[Real; LANES]; 3];
+
+/// `alpha * m`, entry by entry, as `[row][column]`: the factor nalgebra's `gemv` forms for
+/// each entry of `m` (`alpha * m[(r, k)]`) before it multiplies.
+fn scaled(alpha: Real, m: &na::Matrix3<Real>) -> [[Real; 3]; 3] {
+    core::array::from_fn(|r| core::array::from_fn(|k| alpha * m[(r, k)]))
+}
+
+/// `y += a x` for each of the [`LANES`] columns, `a` already scaled by `gemm`'s alpha
+/// ([`scaled`]): each entry's arithmetic is nalgebra's `gemm(alpha, a, x, 1.0)` on a 3-row
+/// matrix, which goes column by column through `gemv` and `axcpy`: `y = (alpha a[r][k])
+/// x[k] + 1 y` for `k` in order, unfused.
+#[inline(always)]
+fn add_product(y: &mut Rows3, a: &[[Real; 3]; 3], x: &Rows3) {
+    for k in 0..3 {
+        for r in 0..3 {
+            let ark = a[r][k];
+            for l in 0..LANES {
+                y[r][l] = ark * x[k][l] + y[r][l];
+            }
+        }
+    }
+}
+
+/// Rows `row0..row0 + 3` of block `block` of a [`transpose_columns`] layout, its lanes from
+/// `valid` on read as +0.
+#[inline(always)]
+fn load_rows(src: &[Real], block: usize, row0: usize, valid: usize) -> Rows3 {
+    let mut rows = [[0.0; LANES]; 3];
+    if valid == 0 {
+        // Past the parent's blocks.
+        return rows;
+    }
+    for (r, row) in rows.iter_mut().enumerate() {
+        let at = (block * SPATIAL_DIM + row0 + r) * LANES;
+        // Whole blocks read and masked: a copy of `valid` entries into the stack, then read
+        // back as one register, stalls the store forwarding.
+        let src: &[Real; LANES] = src[at..at + LANES].try_into().unwrap();
+        for l in 0..LANES {
+            row[l] = if l < valid { src[l] } else { 0.0 };
+        }
+    }
+    rows
+}
+
+#[inline(always)]
+fn store_rows(dst: &mut [Real], block: usize, row0: usize, rows: &Rows3) {
+    for (r, row) in rows.iter().enumerate() {
+        let at = (block * SPATIAL_DIM + row0 + r) * LANES;
+        dst[at..at + LANES].copy_from_slice(row);
+    }
+}
+
+/// A link's Coriolis terms from its parent's (`cor`, `parent_cor`: `coriolis_v` in rows
+/// `0..3`, `coriolis_w` in rows `3..6`; `parent_jt` the parent's body Jacobian; all in the
+/// layout of [`transpose_columns`]; the parent's first `parent_width` columns are the
+/// child's first): `v = pv + m[0] pw + m[1] pj + m[2] pj + m[3] pj`, `w = pw + m[4] pj`,
+/// each product added in that order ([`add_product`]), `pj` the parent's angular rows. The
+/// child's other columns start from +0, as upstream's, where the parent's terms are +0.
+fn coriolis_from_parent(
+    cor: &mut [Real],
+    parent_cor: &[Real],
+    parent_jt: &[Real],
+    parent_width: usize,
+    m: &[[[Real; 3]; 3]; 5],
+) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if std::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX, checked just above.
+        unsafe { coriolis_from_parent_avx(cor, parent_cor, parent_jt, parent_width, m) };
+        return;
+    }
+    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m);
+}
+
+/// [`coriolis_from_parent_any`] compiled for CPUs with AVX (no FMA: the same arithmetic).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+unsafe fn coriolis_from_parent_avx(
+    cor: &mut [Real],
+    parent_cor: &[Real],
+    parent_jt: &[Real],
+    parent_width: usize,
+    m: &[[[Real; 3]; 3]; 5],
+) {
+    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m)
+}
+
+#[inline(always)]
+fn coriolis_from_parent_any(
+    cor: &mut [Real],
+    parent_cor: &[Real],
+    parent_jt: &[Real],
+    parent_width: usize,
+    m: &[[[Real; 3]; 3]; 5],
+) {
+    let blocks = cor.len() / (SPATIAL_DIM * LANES);
+    for b in 0..blocks {
+        let valid = parent_width.saturating_sub(b * LANES).min(LANES);
+        let pv = load_rows(parent_cor, b, 0, valid);
+        let pw = load_rows(parent_cor, b, DIM, valid);
+        let pj = load_rows(parent_jt, b, DIM, valid);
+        let (mut v, mut w) = (pv, pw);
+        add_product(&mut v, &m[0], &pw);
+        add_product(&mut v, &m[1], &pj);
+        add_product(&mut v, &m[2], &pj);
+        add_product(&mut v, &m[3], &pj);
+        add_product(&mut w, &m[4], &pj);
+        store_rows(cor, b, 0, &v);
+        store_rows(cor, b, DIM, &w);
+    }
+}
+
+/// A link's own Coriolis terms added (`v += m[0] w + m[1] j + m[2] j`, `j` its angular
+/// rows in `jt`), then melded: `icd` gets `v` scaled by `mass_dt` row by row over
+/// `dt_inertia w` (nalgebra's `gemm(dt, inertia, w, 0.0)`: the first product stored, the
+/// next two added). Same layout as [`coriolis_from_parent`].
+fn coriolis_meld(
+    cor: &mut [Real],
+    jt: &[Real],
+    m: &[[[Real; 3]; 3]; 3],
+    mass_dt: [Real; 3],
+    dt_inertia: &[[Real; 3]; 3],
+    icd: &mut [Real],
+) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if std::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX, checked just above.
+        unsafe { coriolis_meld_avx(cor, jt, m, mass_dt, dt_inertia, icd) };
+        return;
+    }
+    coriolis_meld_any(cor, jt, m, mass_dt, dt_inertia, icd);
+}
+
+/// [`coriolis_meld_any`] compiled for CPUs with AVX (no FMA: the same arithmetic).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+unsafe fn coriolis_meld_avx(
+    cor: &mut [Real],
+    jt: &[Real],
+    m: &[[[Real; 3]; 3]; 3],
+    mass_dt: [Real; 3],
+    dt_inertia: &[[Real; 3]; 3],
+    icd: &mut [Real],
+) {
+    coriolis_meld_any(cor, jt, m, mass_dt, dt_inertia, icd)
+}
+
+#[inline(always)]
+fn coriolis_meld_any(
+    cor: &mut [Real],
+    jt: &[Real],
+    m: &[[[Real; 3]; 3]; 3],
+    mass_dt: [Real; 3],
+    dt_inertia: &[[Real; 3]; 3],
+    icd: &mut [Real],
+) {
+    let blocks = cor.len() / (SPATIAL_DIM * LANES);
+    for b in 0..blocks {
+        let mut v = load_rows(cor, b, 0, LANES);
+        let w = load_rows(cor, b, DIM, LANES);
+        let j = load_rows(jt, b, DIM, LANES);
+        add_product(&mut v, &m[0], &w);
+        add_product(&mut v, &m[1], &j);
+        add_product(&mut v, &m[2], &j);
+        store_rows(cor, b, 0, &v);
+
+        let mut iv = v;
+        for (row, md) in iv.iter_mut().zip(mass_dt) {
+            for x in row.iter_mut() {
+                *x *= md;
+            }
+        }
+        let mut iw = [[0.0; LANES]; 3];
+        for (r, row) in iw.iter_mut().enumerate() {
+            let a0 = dt_inertia[r][0];
+            for l in 0..LANES {
+                row[l] = a0 * w[0][l];
+            }
+        }
+        for k in 1..3 {
+            for (r, row) in iw.iter_mut().enumerate() {
+                let ark = dt_inertia[r][k];
+                for l in 0..LANES {
+                    row[l] = ark * w[k][l] + row[l];
+                }
+            }
+        }
+        store_rows(icd, b, 0, &iv);
+        store_rows(icd, b, DIM, &iw);
     }
 }
 
@@ -2814,6 +3002,12 @@ mod test {
     /// A branched tree (free root, three 2-link legs) with every link moving, and its bodies.
     #[cfg(feature = "dim3")]
     fn moving_three_legged_tree() -> (RigidBodySet, super::Multibody) {
+        moving_tree(2)
+    }
+
+    /// A branched tree (free root, three legs of `links` links) with every link moving.
+    #[cfg(feature = "dim3")]
+    fn moving_tree(links: usize) -> (RigidBodySet, super::Multibody) {
         use crate::dynamics::MassProperties;
         let mut bodies = RigidBodySet::new();
         let mut joints = MultibodyJointSet::new();
@@ -2833,16 +3027,16 @@ mod test {
         let root = body(&mut bodies, 0.0);
         let mut handle = None;
         for leg in 0..3 {
-            let upper = body(&mut bodies, 1.0 + leg as Real);
-            let lower = body(&mut bodies, 1.5 + leg as Real);
             let axes = [Vector::X, Vector::Y, Vector::Z];
-            let h = joints
-                .insert(root, upper, RevoluteJoint::new(axes[leg]), true)
-                .unwrap();
-            joints
-                .insert(upper, lower, RevoluteJoint::new(axes[(leg + 1) % 3]), true)
-                .unwrap();
-            handle.get_or_insert(h);
+            let mut parent = root;
+            for k in 0..links {
+                let link = body(&mut bodies, 1.0 + 0.5 * k as Real + leg as Real);
+                let h = joints
+                    .insert(parent, link, RevoluteJoint::new(axes[(leg + k) % 3]), true)
+                    .unwrap();
+                handle.get_or_insert(h);
+                parent = link;
+            }
         }
         let colliders = ColliderSet::new();
         let handles: Vec<_> = bodies.iter().map(|(h, _)| h).collect();
@@ -2880,6 +3074,94 @@ mod test {
                 "sparse differs by {diff} (scale {scale})"
             );
         }
+    }
+
+    /// Strider patch: each link's Coriolis terms, computed over its nonzero columns in
+    /// blocks of lanes, have the bits of upstream's dense `gemm`s, on legs of two links (one
+    /// block a link) and four (a second block, part of it the parent's padding).
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn coriolis_blocks_match_dense_bit_for_bit() {
+        use super::LANES;
+        for links in [2, 4] {
+            let (bodies, mut mb) = moving_tree(links);
+            let dt = 1.0 / 240.0;
+            let mut dense = mb.clone();
+            mb.update_mass_matrix(dt, &bodies);
+            let (cv, cw) = dense.update_mass_matrix_dense(dt, &bodies);
+            let (mut checked, mut nonzero, mut second_block) = (0, 0, false);
+            for (i, ranges) in mb.workspace.col_ranges.iter().enumerate() {
+                let cor = &mb.workspace.coriolis[i];
+                let mut a = 0;
+                for &(s, n) in ranges {
+                    for c in s..s + n {
+                        let (block, lane) = (a / LANES, a % LANES);
+                        second_block |= block > 0;
+                        for r in 0..3 {
+                            for (row0, full) in [(0, cv[i][(r, c)]), (3, cw[i][(r, c)])] {
+                                let ours = cor[(block * SPATIAL_DIM + row0 + r) * LANES + lane];
+                                assert_eq!(ours.to_bits(), full.to_bits(), "link {i} column {c}");
+                                checked += 1;
+                                nonzero += (full != 0.0) as usize;
+                            }
+                        }
+                        a += 1;
+                    }
+                }
+            }
+            // Not all zeros (the root's terms and some rows are, by structure).
+            assert!(nonzero * 4 > checked, "{nonzero} of {checked}");
+            assert_eq!(second_block, links > 2);
+        }
+    }
+
+    /// Strider patch: the Coriolis kernels give the same bits with AVX as without.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[test]
+    fn coriolis_kernels_are_the_same_with_avx() {
+        use super::{
+            LANES, coriolis_from_parent_any, coriolis_from_parent_avx, coriolis_meld_any,
+            coriolis_meld_avx,
+        };
+        if !std::is_x86_feature_detected!("avx") {
+            return;
+        }
+        let mut state = 0x5eed_1234_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 4.0
+        };
+        let len = 2 * SPATIAL_DIM * LANES;
+        let mut fill = |n: usize| (0..n).map(|_| next()).collect::<Vec<Real>>();
+        let (parent_cor, parent_jt, jt) = (fill(len / 2), fill(len / 2), fill(len));
+        let m5: [[[Real; 3]; 3]; 5] = {
+            let v = fill(45);
+            core::array::from_fn(|p| {
+                core::array::from_fn(|r| core::array::from_fn(|k| v[p * 9 + r * 3 + k]))
+            })
+        };
+        let m3: [[[Real; 3]; 3]; 3] = core::array::from_fn(|p| m5[p]);
+        let bits = |x: &[Real]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let (mut plain, mut avx) = (vec![0.0; len], vec![0.0; len]);
+        coriolis_from_parent_any(&mut plain, &parent_cor, &parent_jt, 5, &m5);
+        // SAFETY: the CPU has AVX, checked above.
+        unsafe { coriolis_from_parent_avx(&mut avx, &parent_cor, &parent_jt, 5, &m5) };
+        assert!(plain.iter().any(|x| *x != 0.0));
+        assert_eq!(bits(&plain), bits(&avx));
+        let (mut icd_plain, mut icd_avx) = (vec![0.0; len], vec![0.0; len]);
+        coriolis_meld_any(
+            &mut plain,
+            &jt,
+            &m3,
+            [1.5, -0.5, 2.0],
+            &m5[4],
+            &mut icd_plain,
+        );
+        // SAFETY: as above.
+        unsafe { coriolis_meld_avx(&mut avx, &jt, &m3, [1.5, -0.5, 2.0], &m5[4], &mut icd_avx) };
+        assert_eq!(bits(&plain), bits(&avx));
+        assert!(icd_plain.iter().any(|x| *x != 0.0));
+        assert_eq!(bits(&icd_plain), bits(&icd_avx));
     }
 
     /// Strider patch: the body Jacobians computed over each link's nonzero columns have the
@@ -2945,14 +3227,16 @@ mod test {
         }
     }
 
-    /// Strider patch: the mass matrix's `Jᵀ W` blocks, eight entries side by side, have the
-    /// bits nalgebra's `gemm_tr` gave block by block, with or without AVX, for ranges of one
-    /// to six blocks of lanes (the last on the heap). Fails if an entry's dot product is
-    /// reordered, started from a non-zero, fused, or added to another block's entry.
+    /// Strider patch: the mass matrices' `Jᵀ W` blocks, eight entries side by side and three
+    /// products in one pass, have the bits nalgebra's `gemm_tr` gave block by block and
+    /// product by product (the Coriolis one added after the other), with or without AVX, for
+    /// ranges of one to six blocks of lanes (the last on the heap). Fails if an entry's dot
+    /// product is reordered, started from a non-zero, fused, or added to another block's
+    /// entry, or if the two products into one matrix are added the other way round.
     #[cfg(feature = "std")]
     #[test]
     fn transposed_products_match_gemm_tr_bit_for_bit() {
-        use super::{transpose_columns, transposed_product_add, transposed_product_add_any};
+        use super::{transpose_columns, transposed_products_add, transposed_products_add_any};
         use crate::math::{Jacobian, Real};
         use na::DMatrix;
         let mut state = 0x1234_5678_u32;
@@ -2962,8 +3246,11 @@ mod test {
         };
         let ndofs = 48;
         let j = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
-        let w = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
-        let start = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
+        let w0 = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let w1 = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let c = Jacobian::<Real>::from_fn(ndofs, |_, _| next());
+        let start0 = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
+        let start1 = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
         let bits = |x: &DMatrix<Real>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         let cases: [&[(usize, usize)]; 6] = [
             &[(0, 6)],
@@ -2974,26 +3261,47 @@ mod test {
             &[(0, 45)],
         ];
         for ranges in cases {
-            let mut reference = start.clone();
-            for &(sa, na_) in ranges {
-                for &(sb, nb) in ranges {
-                    reference.view_mut((sa, sb), (na_, nb)).gemm_tr(
-                        1.0,
-                        &j.columns(sa, na_),
-                        &w.columns(sb, nb),
-                        1.0,
-                    );
+            let (mut ref0, mut ref1) = (start0.clone(), start1.clone());
+            for (target, w) in [(0, &w0), (1, &w1), (1, &c)] {
+                let reference = if target == 0 { &mut ref0 } else { &mut ref1 };
+                for &(sa, na_) in ranges {
+                    for &(sb, nb) in ranges {
+                        reference.view_mut((sa, sb), (na_, nb)).gemm_tr(
+                            1.0,
+                            &j.columns(sa, na_),
+                            &w.columns(sb, nb),
+                            1.0,
+                        );
+                    }
                 }
             }
-            assert_ne!(bits(&reference), bits(&start));
-            let mut jt = Vec::new();
+            assert_ne!(bits(&ref0), bits(&start0));
+            assert_ne!(bits(&ref1), bits(&start1));
+            let (mut jt, mut ct) = (Vec::new(), Vec::new());
             transpose_columns(&mut jt, &j, ranges);
-            let mut ours = start.clone();
-            transposed_product_add(ours.as_mut_slice(), ndofs, &jt, &w, ranges);
-            assert_eq!(bits(&ours), bits(&reference), "{ranges:?}");
-            let mut portable = start.clone();
-            transposed_product_add_any(portable.as_mut_slice(), ndofs, &jt, w.as_slice(), ranges);
-            assert_eq!(bits(&portable), bits(&reference), "{ranges:?} without AVX");
+            transpose_columns(&mut ct, &c, ranges);
+            let (mut ours0, mut ours1) = (start0.clone(), start1.clone());
+            transposed_products_add(
+                [ours0.as_mut_slice(), ours1.as_mut_slice()],
+                ndofs,
+                &jt,
+                [w0.as_slice(), w1.as_slice()],
+                &ct,
+                ranges,
+            );
+            assert_eq!(bits(&ours0), bits(&ref0), "{ranges:?}");
+            assert_eq!(bits(&ours1), bits(&ref1), "{ranges:?}");
+            let (mut portable0, mut portable1) = (start0.clone(), start1.clone());
+            transposed_products_add_any(
+                [portable0.as_mut_slice(), portable1.as_mut_slice()],
+                ndofs,
+                &jt,
+                [w0.as_slice(), w1.as_slice()],
+                &ct,
+                ranges,
+            );
+            assert_eq!(bits(&portable0), bits(&ref0), "{ranges:?} without AVX");
+            assert_eq!(bits(&portable1), bits(&ref1), "{ranges:?} without AVX");
         }
     }
 

@@ -13,11 +13,17 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
     /// apart: it runs before `update_mass_matrix`, and not always with it).
     pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
-    /// Strider patch: `M J` for one link, reused across links and steps.
-    pub mass_work: Jacobian<Real>,
-    /// Strider patch: one link's nonzero body-Jacobian columns laid out for
-    /// `transposed_product_add`, reused across links and steps.
-    pub jacobian_rows: Vec<Real>,
+    /// Strider patch: `M J` for one link and each of the two mass matrices, reused across
+    /// links and steps.
+    pub mass_work: [Jacobian<Real>; 2],
+    /// Strider patch: each link's nonzero body-Jacobian columns in blocks of lanes, laid
+    /// out for `transposed_product_add`, reused across steps.
+    pub jacobian_blocks: Vec<Vec<Real>>,
+    /// Strider patch: each link's Coriolis terms over its nonzero columns, in the same
+    /// layout.
+    pub coriolis: Vec<Vec<Real>>,
+    /// Strider patch: one link's Coriolis terms melded with its mass, in the same layout.
+    pub coriolis_dt: Vec<Real>,
 }
 
 impl MultibodyWorkspace {
@@ -28,8 +34,10 @@ impl MultibodyWorkspace {
             ndofs_vec: DVector::zeros(0),
             col_ranges: Vec::new(),
             jacobian_ranges: Vec::new(),
-            mass_work: Jacobian::zeros(0),
-            jacobian_rows: Vec::new(),
+            mass_work: [Jacobian::zeros(0), Jacobian::zeros(0)],
+            jacobian_blocks: Vec::new(),
+            coriolis: Vec::new(),
+            coriolis_dt: Vec::new(),
         }
     }
 
