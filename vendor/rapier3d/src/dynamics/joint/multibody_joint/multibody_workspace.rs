@@ -4,7 +4,7 @@ use crate::math::{DVector, Jacobian, Real};
 
 /// A temporary workspace for various updates of the multibody.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(crate) struct MultibodyWorkspace {
     pub accs: Vec<RigidBodyVelocity<Real>>,
     pub ndofs_vec: DVector,
@@ -24,6 +24,25 @@ pub(crate) struct MultibodyWorkspace {
     pub coriolis: Vec<Vec<Real>>,
     /// Strider patch: one link's Coriolis terms melded with its mass, in the same layout.
     pub coriolis_dt: Vec<Real>,
+}
+
+/// Strider patch: a copy has the workspace's sizes and none of its contents, which every
+/// step writes before it reads them (the buffers are scratch). A multibody is copied
+/// every few steps to take a step again (the worker's joint drives); copying the buffers,
+/// about seventy allocations for a hexapod, was most of that copy's cost.
+impl Clone for MultibodyWorkspace {
+    fn clone(&self) -> Self {
+        MultibodyWorkspace {
+            accs: vec![RigidBodyVelocity::zero(); self.accs.len()],
+            ndofs_vec: DVector::zeros(self.ndofs_vec.len()),
+            col_ranges: Vec::new(),
+            jacobian_ranges: Vec::new(),
+            mass_work: [Jacobian::zeros(0), Jacobian::zeros(0)],
+            jacobian_blocks: Vec::new(),
+            coriolis: Vec::new(),
+            coriolis_dt: Vec::new(),
+        }
+    }
 }
 
 impl MultibodyWorkspace {
