@@ -2109,16 +2109,15 @@ impl Multibody {
         // the diagonal (its unit diagonal implied), `u` on and above it. (nalgebra's `l()`
         // and `u()` copied them out element by element each step.)
         let packed = self.inv_augmented_mass.lu_internal().as_slice();
-        let (l, u) = (packed, packed);
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         if std::is_x86_feature_detected!("avx") {
             // SAFETY: the CPU has AVX, checked just above.
-            unsafe { lu_solve_rows_avx(x, l, u) };
+            unsafe { lu_solve_rows_avx(x, packed) };
         } else {
-            lu_solve_rows(x, l, u);
+            lu_solve_rows(x, packed);
         }
         #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
-        lu_solve_rows(x, l, u);
+        lu_solve_rows(x, packed);
         for (c, &j_id) in j_ids.iter().enumerate() {
             for (i, xi) in x.iter().enumerate() {
                 jacobians[j_id + n + i] = xi[c];
@@ -2361,11 +2360,11 @@ fn spatial_product(
 }
 
 /// The rows of [`Multibody::solve_jacobians`] (`x`, row-interleaved) solved against the
-/// unit-lower `l` and upper `u` factors (`n x n`, column-major) of the permuted mass matrix:
-/// only `l`'s entries below the diagonal are read, and only `u`'s on and above it, so both
-/// may be the LU's packed matrix.
+/// LU's packed matrix (`n x n`, column-major) of the permuted mass matrix: its unit-lower
+/// factor below the diagonal, its upper factor on and above it.
 #[inline(always)]
-fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], l: &[Real], u: &[Real]) {
+fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], packed: &[Real]) {
+    let (l, u) = (packed, packed);
     const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;
     let n = x.len();
     // nalgebra's `solve_lower_triangular_with_diag_mut` with a unit diagonal.
@@ -2407,10 +2406,9 @@ fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], l: &[Re
 #[target_feature(enable = "avx")]
 unsafe fn lu_solve_rows_avx(
     x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]],
-    l: &[Real],
-    u: &[Real],
+    packed: &[Real],
 ) {
-    lu_solve_rows(x, l, u)
+    lu_solve_rows(x, packed)
 }
 
 /// Fills `ranges[i]` with link `i`'s nonzero body-Jacobian columns `(start, len)`: its
@@ -3320,9 +3318,8 @@ mod test {
             ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 4.0
         };
         let n = 21;
-        let l: Vec<Real> = (0..n * n).map(|_| next()).collect();
         // A diagonal away from zero, so every row is solved.
-        let u: Vec<Real> = (0..n * n)
+        let packed: Vec<Real> = (0..n * n)
             .map(|e| {
                 if e % (n + 1) == 0 {
                     3.0 + next().abs()
@@ -3334,9 +3331,9 @@ mod test {
         let x: Vec<[Real; 3 * MAX_MANIFOLD_POINTS]> =
             (0..n).map(|_| core::array::from_fn(|_| next())).collect();
         let (mut plain, mut avx) = (x.clone(), x.clone());
-        lu_solve_rows(&mut plain, &l, &u);
+        lu_solve_rows(&mut plain, &packed);
         // SAFETY: the CPU has AVX, checked above.
-        unsafe { lu_solve_rows_avx(&mut avx, &l, &u) };
+        unsafe { lu_solve_rows_avx(&mut avx, &packed) };
         let bits = |x: &[[Real; 3 * MAX_MANIFOLD_POINTS]]| {
             x.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>()
         };
