@@ -892,9 +892,10 @@ impl Multibody {
     ) -> (
         Vec<OMatrix<Real, Dim, Dyn>>,
         Vec<OMatrix<Real, AngDim, Dyn>>,
+        Vec<Jacobian<Real>>,
     ) {
         if self.ndofs == 0 {
-            return (Vec::new(), Vec::new()); // Nothing to do.
+            return (Vec::new(), Vec::new(), Vec::new()); // Nothing to do.
         }
 
         if self.augmented_mass.ncols() != self.ndofs {
@@ -912,6 +913,7 @@ impl Multibody {
         let mut cor_v = vec![OMatrix::<Real, Dim, Dyn>::zeros(self.ndofs); self.links.len()];
         let mut cor_w = vec![OMatrix::<Real, AngDim, Dyn>::zeros(self.ndofs); self.links.len()];
         let mut i_coriolis_dt = Jacobian::zeros(self.ndofs);
+        let mut melded = Vec::with_capacity(self.links.len());
 
         let mut curr_assembly_id = 0;
 
@@ -1091,6 +1093,7 @@ impl Multibody {
 
             self.acc_augmented_mass
                 .gemm_tr(1.0, rb_j, &i_coriolis_dt, 1.0);
+            melded.push(i_coriolis_dt.clone());
         }
 
         /*
@@ -1154,7 +1157,7 @@ impl Multibody {
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
         );
-        (cor_v, cor_w)
+        (cor_v, cor_w, melded)
     }
 
     pub(crate) fn update_mass_matrix(&mut self, dt: Real, bodies: &RigidBodySet) {
@@ -3011,10 +3014,12 @@ mod test {
         let mut joints = MultibodyJointSet::new();
         let mut rnd = oorandom::Rand32::new(7);
         let body = |bodies: &mut RigidBodySet, x: Real| {
-            let m = MassProperties::new(
+            // Principal axes turned from the body's, so every inertia has off-diagonal terms.
+            let m = MassProperties::with_principal_inertia_frame(
                 Vector::new(0.1, -0.05, 0.02),
                 1.0 + x,
                 Vector::new(0.3 + x, 0.2, 0.1 + 0.5 * x),
+                crate::math::Rotation::from_scaled_axis(Vector::new(0.3, -0.2 + 0.1 * x, 0.4)),
             );
             bodies.insert(
                 RigidBodyBuilder::dynamic()
@@ -3086,7 +3091,7 @@ mod test {
             let dt = 1.0 / 240.0;
             let mut dense = mb.clone();
             mb.update_mass_matrix(dt, &bodies);
-            let (cv, cw) = dense.update_mass_matrix_dense(dt, &bodies);
+            let (cv, cw, melded) = dense.update_mass_matrix_dense(dt, &bodies);
             let (mut checked, mut nonzero, mut second_block) = (0, 0, false);
             for (i, ranges) in mb.workspace.col_ranges.iter().enumerate() {
                 let cor = &mb.workspace.coriolis[i];
@@ -3110,6 +3115,22 @@ mod test {
             // Not all zeros (the root's terms and some rows are, by structure).
             assert!(nonzero * 4 > checked, "{nonzero} of {checked}");
             assert_eq!(second_block, links > 2);
+            // The last link's terms melded with its mass and `dt` (`coriolis_dt` holds the
+            // last link's), against upstream's `component_mul` and `gemm(dt, inertia, w, 0)`.
+            let last = mb.links.len() - 1;
+            let icd = &mb.workspace.coriolis_dt;
+            let mut a = 0;
+            for &(s, n) in &mb.workspace.col_ranges[last] {
+                for c in s..s + n {
+                    let (block, lane) = (a / LANES, a % LANES);
+                    for k in 0..SPATIAL_DIM {
+                        let ours = icd[(block * SPATIAL_DIM + k) * LANES + lane];
+                        let full = melded[last][(k, c)];
+                        assert_eq!(ours.to_bits(), full.to_bits(), "melded row {k} column {c}");
+                    }
+                    a += 1;
+                }
+            }
         }
     }
 
@@ -3160,6 +3181,94 @@ mod test {
         assert_eq!(bits(&plain), bits(&avx));
         assert!(icd_plain.iter().any(|x| *x != 0.0));
         assert_eq!(bits(&icd_plain), bits(&icd_avx));
+    }
+
+    /// Strider patch: a world put back from copies of its sets (as the worker's joint drives
+    /// do to take a step again) steps as the world they were copied from, bit for bit, with
+    /// its robot on the ground: a copy of a multibody keeps all its state (its workspace is
+    /// scratch and copied as sizes only).
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn a_world_put_back_from_copies_steps_the_same() {
+        use crate::prelude::{ColliderBuilder, PhysicsWorld, RevoluteJointBuilder};
+        let mut world = PhysicsWorld::new();
+        world.insert(
+            RigidBodyBuilder::fixed().translation(Vector::new(0.0, -0.5, 0.0)),
+            ColliderBuilder::cuboid(50.0, 0.5, 50.0),
+        );
+        // Awake throughout, and its joints set swinging before every step (below), so that
+        // every step moves the robot and its feet strike and leave the ground.
+        let body = |at: Vector| RigidBodyBuilder::dynamic().translation(at).can_sleep(false);
+        let (root, _) = world.insert(
+            body(Vector::new(0.0, 1.0, 0.0)),
+            ColliderBuilder::cuboid(0.5, 0.1, 0.3),
+        );
+        let mut first_joint = None;
+        for leg in 0..4 {
+            let (x, z) = ([0.4, -0.4][leg % 2], [0.3, -0.3][leg / 2]);
+            let mut parent = root;
+            for k in 0..3 {
+                let (link, _) = world.insert(
+                    body(Vector::new(x, 0.8 - 0.25 * k as Real, z)),
+                    ColliderBuilder::capsule_y(0.1, 0.05),
+                );
+                let axis = if k == 0 { Vector::Y } else { Vector::Z };
+                let anchor = if k == 0 {
+                    Vector::new(x, -0.1, z)
+                } else {
+                    Vector::new(0.0, -0.125, 0.0)
+                };
+                let joint = RevoluteJointBuilder::new(axis)
+                    .local_anchor1(anchor)
+                    .local_anchor2(Vector::new(0.0, 0.125, 0.0));
+                let handle = world.insert_multibody_joint(parent, link, joint).unwrap();
+                first_joint.get_or_insert(handle);
+                parent = link;
+            }
+        }
+        let first_joint = first_joint.unwrap();
+        let mut step = 0;
+        let mut run = |world: &mut PhysicsWorld| {
+            let mut bits = Vec::new();
+            for _ in 0..60 {
+                let (mb, _) = world.multibody_joints.get_mut(first_joint).unwrap();
+                for (j, v) in mb.generalized_velocity_mut().iter_mut().enumerate().skip(6) {
+                    *v = 4.0 * (0.3 * (step % 60) as Real + j as Real).sin();
+                }
+                step += 1;
+                world.step();
+                for (_, rb) in world.bodies.iter() {
+                    bits.extend(rb.translation().to_array().map(Real::to_bits));
+                    bits.extend(rb.linvel().to_array().map(Real::to_bits));
+                }
+            }
+            bits
+        };
+        run(&mut world);
+        let copies = (
+            world.bodies.clone(),
+            world.colliders.clone(),
+            world.multibody_joints.clone(),
+            world.islands.clone(),
+            world.broad_phase.clone(),
+            world.narrow_phase.clone(),
+        );
+        let first = run(&mut world);
+        assert!(
+            world
+                .narrow_phase
+                .contact_pairs()
+                .any(|p| p.has_any_active_contact()),
+            "the robot never touched the ground"
+        );
+        world.bodies.clone_from(&copies.0);
+        world.colliders.clone_from(&copies.1);
+        world.multibody_joints.clone_from(&copies.2);
+        world.islands.clone_from(&copies.3);
+        world.broad_phase.clone_from(&copies.4);
+        world.narrow_phase.clone_from(&copies.5);
+        let again = run(&mut world);
+        assert!(first == again, "the put-back world stepped otherwise");
     }
 
     /// Strider patch: the body Jacobians computed over each link's nonzero columns have the
