@@ -1191,7 +1191,7 @@ impl Multibody {
             acc_work = Jacobian::zeros(self.ndofs);
         }
         // Each link's body Jacobian, its nonzero columns laid out for
-        // `transposed_product_add` (a child reads its parent's for its Coriolis terms),
+        // `transposed_products_add` (a child reads its parent's for its Coriolis terms),
         // and its Coriolis terms in the same layout.
         let mut jt = core::mem::take(&mut self.workspace.jacobian_blocks);
         jt.resize_with(self.links.len(), Vec::new);
@@ -2438,11 +2438,11 @@ fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usiz
     }
 }
 
-/// Lanes of [`transposed_product_add`]'s blocks: eight `f32` fill one AVX register.
+/// Lanes of [`transposed_products_add`]'s blocks: eight `f32` fill one AVX register.
 const LANES: usize = 8;
 
 /// Copies the columns `ranges` of `j`, in order and side by side, into `jt` for
-/// [`transposed_product_add`]: blocks of [`LANES`] columns, each block `SPATIAL_DIM` rows of
+/// [`transposed_products_add`]: blocks of [`LANES`] columns, each block `SPATIAL_DIM` rows of
 /// [`LANES`] entries (`jt[(block * SPATIAL_DIM + k) * LANES + lane]`), the last block padded
 /// with zeros.
 fn transpose_columns(jt: &mut Vec<Real>, j: &Jacobian<Real>, ranges: &[(usize, usize)]) {

@@ -17,7 +17,7 @@ pub(crate) struct MultibodyWorkspace {
     /// links and steps.
     pub mass_work: [Jacobian<Real>; 2],
     /// Strider patch: each link's nonzero body-Jacobian columns in blocks of lanes, laid
-    /// out for `transposed_product_add`, reused across steps.
+    /// out for `transposed_products_add`, reused across steps.
     pub jacobian_blocks: Vec<Vec<Real>>,
     /// Strider patch: each link's Coriolis terms over its nonzero columns, in the same
     /// layout.
@@ -32,16 +32,9 @@ pub(crate) struct MultibodyWorkspace {
 /// about seventy allocations for a hexapod, was most of that copy's cost.
 impl Clone for MultibodyWorkspace {
     fn clone(&self) -> Self {
-        MultibodyWorkspace {
-            accs: vec![RigidBodyVelocity::zero(); self.accs.len()],
-            ndofs_vec: DVector::zeros(self.ndofs_vec.len()),
-            col_ranges: Vec::new(),
-            jacobian_ranges: Vec::new(),
-            mass_work: [Jacobian::zeros(0), Jacobian::zeros(0)],
-            jacobian_blocks: Vec::new(),
-            coriolis: Vec::new(),
-            coriolis_dt: Vec::new(),
-        }
+        let mut copy = Self::new();
+        copy.resize(self.accs.len(), self.ndofs_vec.len());
+        copy
     }
 }
 
