@@ -1,5 +1,6 @@
-//! Trial throughput: trials per second on one core by legs per side, one ES candidate, and
-//! the batch evaluator on one and two threads. Figures go to BENCHMARKS.md.
+//! Trial throughput: trials per second on one core by legs per side, one ES candidate, the
+//! batch evaluator on one and two threads, and a confirmed candidate's answer with and
+//! without an idle thread's help. Figures go to BENCHMARKS.md.
 
 /// The binaries' allocator, so that the figures are theirs.
 #[global_allocator]
@@ -7,13 +8,17 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::num::NonZeroUsize;
+use std::sync::Arc;
 use strider_common::params::M;
 use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
+use strider_common::Outcome;
 use strider_common::{BodyPlan, Controller, Genome, Scheme};
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::evaluate;
+use strider_worker::pool::{SimPool, Trial};
 use strider_worker::sim::trial::{run_trial, TrialEnd};
+use tokio::sync::Semaphore;
 
 fn max() -> Genome {
     strider_common::reference::max()
@@ -92,5 +97,47 @@ fn batch(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, trials, batch);
+/// One design that passes every confirming trial (both floors and the finer step, about 100
+/// simulated seconds in all): its answer alone on the calling thread, and from a pool of
+/// two simulation threads whose other thread is idle and helps (strider_worker::help), as
+/// at the end of a generation or on a worker with more cores than candidates.
+fn confirmed(c: &mut Criterion) {
+    let ctx = EvalContext::paper();
+    let genome = Genome::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/walks_on_every_floor.json"),
+    )
+    .unwrap();
+    let seed = CandidateSeed::new(0, 0);
+    assert!(matches!(
+        evaluate(&ctx, &genome, Scheme::Static, seed),
+        Outcome::Valid { .. }
+    ));
+    let mut group = c.benchmark_group("confirmed_candidate");
+    group.sample_size(10);
+    group.bench_function("alone", |b| {
+        b.iter(|| evaluate(&ctx, &genome, Scheme::Static, seed))
+    });
+    let pool = SimPool::new(NonZeroUsize::new(2).unwrap()).unwrap();
+    let cores = Arc::new(Semaphore::new(2));
+    group.bench_function("pool_of_2_one_idle", |b| {
+        b.iter(|| {
+            let (answer, answers) = flume::unbounded();
+            pool.run(Trial {
+                key: (),
+                ctx,
+                genome,
+                scheme: Scheme::Static,
+                seed,
+                to_beat: None,
+                core: cores.clone().try_acquire_owned().unwrap(),
+                answer,
+            });
+            answers.recv().unwrap()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, trials, batch, confirmed);
 criterion_main!(benches);

@@ -7,6 +7,7 @@ pub mod commands;
 pub mod es;
 pub mod evaluate;
 pub mod fidelity;
+pub mod help;
 pub mod pool;
 pub mod replay;
 pub mod sim;

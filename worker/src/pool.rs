@@ -8,6 +8,7 @@
 //! batch evaluator (BENCHMARKS.md, "`run` against the batch evaluator alone").
 
 use crate::evaluate::evaluate_to_enter;
+use crate::help::{panic_message, Helpers, Job};
 use std::num::NonZeroUsize;
 use std::time::Instant;
 use strider_common::rng::CandidateSeed;
@@ -41,6 +42,25 @@ pub type Answer<K> = (K, Result<Outcome, String>, f64);
 /// What a simulation thread runs for each trial.
 pub type Evaluate = fn(&EvalContext, &Genome, Scheme, CandidateSeed, Option<f64>) -> Outcome;
 
+/// What a simulation thread takes next (held only until it runs: the size does not matter).
+#[allow(clippy::large_enum_variant)]
+enum Work<K> {
+    Trial(Trial<K>),
+    Help(Job),
+}
+
+/// Runs one trial and answers it. A trial that panics is answered with the panic's
+/// message and its thread goes on: a lost thread would hold its candidate (heartbeated,
+/// never answered) until the run hung.
+fn answer_trial<K>(t: Trial<K>, eval: Evaluate) {
+    let start = Instant::now();
+    let outcome = std::panic::catch_unwind(|| eval(&t.ctx, &t.genome, t.scheme, t.seed, t.to_beat))
+        .map_err(|p| panic_message(&*p));
+    let seconds = start.elapsed().as_secs_f64();
+    drop(t.core);
+    let _ = t.answer.send((t.key, outcome, seconds));
+}
+
 /// The simulation threads. Dropping the pool lets them finish the trial in hand and end.
 pub struct SimPool<K> {
     trials: flume::Sender<Trial<K>>,
@@ -52,30 +72,43 @@ impl<K: Send + 'static> SimPool<K> {
         Self::with(threads, evaluate_to_enter)
     }
 
-    /// Starts `threads` threads that run `eval` for each trial. A trial that panics is
-    /// answered with the panic's message and its thread goes on: a lost thread would hold
-    /// its candidate (heartbeated, never answered) until the run hung.
+    /// Starts `threads` threads that run `eval` for each trial ([`answer_trial`]); an idle one helps
+    /// another with its confirming trials (crate::help).
     pub fn with(threads: NonZeroUsize, eval: Evaluate) -> std::io::Result<Self> {
         let (trials, queue) = flume::unbounded::<Trial<K>>();
+        let (helpers, help_queue) = Helpers::new();
         for i in 0..threads.get() {
             let queue = queue.clone();
+            let help_queue = help_queue.clone();
+            let helpers = helpers.clone();
             std::thread::Builder::new()
                 .name(format!("strider-sim-{i}"))
                 .spawn(move || {
-                    for t in queue.iter() {
-                        let start = Instant::now();
-                        let outcome = std::panic::catch_unwind(|| {
-                            eval(&t.ctx, &t.genome, t.scheme, t.seed, t.to_beat)
-                        })
-                        .map_err(|p| {
-                            p.downcast_ref::<&str>()
-                                .map(|s| s.to_string())
-                                .or_else(|| p.downcast_ref::<String>().cloned())
-                                .unwrap_or_else(|| "a panic without a message".into())
-                        });
-                        let seconds = start.elapsed().as_secs_f64();
-                        drop(t.core);
-                        let _ = t.answer.send((t.key, outcome, seconds));
+                    helpers.clone().install();
+                    // A trial first (it holds a core); else another thread's confirming
+                    // trial (crate::help); else wait, counted idle, for either.
+                    loop {
+                        let work = match queue.try_recv() {
+                            Ok(t) => Work::Trial(t),
+                            Err(flume::TryRecvError::Disconnected) => break,
+                            Err(flume::TryRecvError::Empty) => match help_queue.try_recv() {
+                                Ok(job) => Work::Help(job),
+                                Err(_) => match helpers.idle_while(|| {
+                                    flume::Selector::new()
+                                        .recv(&queue, |t| t.map(Work::Trial))
+                                        .recv(&help_queue, |j| j.map(Work::Help))
+                                        .wait()
+                                }) {
+                                    Ok(work) => work,
+                                    // The pool was dropped (its helpers' queue never is).
+                                    Err(_) => break,
+                                },
+                            },
+                        };
+                        match work {
+                            Work::Trial(t) => answer_trial(t, eval),
+                            Work::Help(job) => job(),
+                        }
                     }
                 })?;
         }
@@ -97,6 +130,7 @@ mod tests {
     use crate::evaluate::evaluate;
     use std::sync::Arc;
     use strider_common::rng::CandidateSeed;
+    use strider_common::InvalidReason;
     use tokio::sync::Semaphore;
 
     #[tokio::test]
@@ -193,5 +227,59 @@ mod tests {
             }
         }
         assert_eq!(cores.available_permits(), 1);
+    }
+
+    #[tokio::test]
+    async fn idle_threads_helping_with_the_confirming_trials_give_the_outcome_of_one_thread() {
+        // One candidate at a time on three threads: two are idle, and take the later
+        // confirming trials (crate::help). Designs that pass every one (the holder waits
+        // for the helpers' verdicts), fail the first floor (the helpers' trials are
+        // abandoned), the second, and the finer step (the last: a helper's verdict).
+        let ctx = EvalContext::paper();
+        let pool = SimPool::new(NonZeroUsize::new(3).unwrap()).unwrap();
+        let cores = Arc::new(Semaphore::new(3));
+        for name in [
+            "walks_on_every_floor.json",
+            "tips_on_the_grippy_floor.json",
+            "meets_the_brief_at_the_finer_step_then_falls.json",
+            "falls_at_the_finer_step_only.json",
+        ] {
+            let genome = Genome::load(
+                &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("tests/fixtures")
+                    .join(name),
+            )
+            .unwrap();
+            let seed = CandidateSeed::new(1, 0);
+            let (answer, answers) = flume::unbounded();
+            let core = cores.clone().acquire_owned().await.unwrap();
+            pool.run(Trial {
+                key: name,
+                ctx,
+                genome,
+                scheme: Scheme::Static,
+                seed,
+                to_beat: None,
+                core,
+                answer,
+            });
+            let (_, helped, _) = answers.recv_async().await.unwrap();
+            let alone = evaluate(&ctx, &genome, Scheme::Static, seed);
+            println!("{name}: {alone:?}");
+            assert!(
+                matches!(alone, Outcome::Valid { .. })
+                    || matches!(
+                        alone,
+                        Outcome::Invalid {
+                            reason: InvalidReason::FrictionSensitive { .. }
+                                | InvalidReason::StepSensitive { .. },
+                            ..
+                        }
+                    ),
+                "{name} reaches the confirming trials: {alone:?}"
+            );
+            assert_eq!(helped, Ok(alone), "{name}");
+        }
+        assert_eq!(cores.available_permits(), 3);
     }
 }

@@ -1,7 +1,10 @@
 //! One morphology with one controller: the checks made before a trial, the trial, the
 //! speed check and the fitness; what every scheme is built from.
 
-use crate::sim::trial::{run_trial_to_beat, Observer, TrialEnd};
+use crate::help::{first_refusal, Check};
+use crate::sim::trial::{run_trial_to_beat, Observer, Sample, TrialEnd};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use strider_common::precheck::check_before_trial;
 use strider_common::{
     BodyPlan, Controller, EvalContext, Features, Genome, InvalidReason, Outcome, Standing,
@@ -74,7 +77,9 @@ pub fn evaluate_controller_against(
 /// `outcome` (the run's trial) if it is not feasible or every confirming trial finds it
 /// feasible too: on the floor with more grip and the one with less (else invalid,
 /// `friction_sensitive`), then at the finer step (else `step_sensitive`). The first that
-/// fails ends it, so a design that fails pays only the trials up to that one.
+/// fails ends it, so a design that fails pays only the trials up to that one; idle
+/// simulation threads may run the later ones meanwhile (crate::help), which changes
+/// nothing but when the answer comes.
 fn confirm(
     ctx: &EvalContext,
     genome: &Genome,
@@ -91,18 +96,37 @@ fn confirm(
     ) {
         return outcome;
     }
-    for check in Confirmation::all(ctx) {
-        let confirmation =
-            judge_at_step(&check.context(ctx), genome, plan, controller, None, &mut ());
-        if !matches!(confirmation, Outcome::Valid { .. }) {
-            return Outcome::Invalid {
-                at_time: ended_at(&confirmation),
-                reason: check.failed(describe(&confirmation)),
-                controller: *controller,
-            };
-        }
+    let checks = Confirmation::all(ctx);
+    let (run_ctx, genome, plan, held) = (*ctx, *genome, plan.clone(), *controller);
+    let run: Arc<Check<Confirmation, Outcome>> = Arc::new(move |check, abandon| {
+        try_judge_at_step(
+            &check.context(&run_ctx),
+            &genome,
+            &plan,
+            &held,
+            None,
+            &mut Abandon(abandon),
+        )
+    });
+    match first_refusal(checks.clone(), run, |o| !matches!(o, Outcome::Valid { .. })) {
+        Some((i, confirmation)) => Outcome::Invalid {
+            at_time: ended_at(&confirmation),
+            reason: checks[i].failed(describe(&confirmation)),
+            controller: *controller,
+        },
+        None => outcome,
     }
-    outcome
+}
+
+/// Watches a confirming trial for one thing: whether its verdict still counts.
+struct Abandon<'a>(&'a AtomicBool);
+
+impl Observer for Abandon<'_> {
+    const WANTS_SAMPLES: bool = false;
+    fn control_step(&mut self, _: &Sample<'_>) {}
+    fn abandoned(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
 }
 
 /// A confirming trial: the run's trial with one setting changed.
@@ -179,9 +203,7 @@ fn describe(outcome: &Outcome) -> String {
     }
 }
 
-/// [`evaluate_controller`] at the context's physics step only; a trial fast enough and no
-/// fitter than `to_beat` is answered `outranked` at the trial's end
-/// ([`run_trial_to_beat`]).
+/// [`try_judge_at_step`] for an observer that never abandons a trial.
 fn judge_at_step(
     ctx: &EvalContext,
     genome: &Genome,
@@ -190,10 +212,26 @@ fn judge_at_step(
     to_beat: Option<f64>,
     observer: &mut impl Observer,
 ) -> Outcome {
+    try_judge_at_step(ctx, genome, plan, controller, to_beat, observer)
+        .expect("only a confirming trial's helper abandons a trial")
+}
+
+/// [`evaluate_controller`] at the context's physics step only; a trial fast enough and no
+/// fitter than `to_beat` is answered `outranked` at the trial's end
+/// ([`run_trial_to_beat`]). `None` only when the observer abandoned the trial
+/// ([`Observer::abandoned`]).
+fn try_judge_at_step(
+    ctx: &EvalContext,
+    genome: &Genome,
+    plan: &BodyPlan,
+    controller: &Controller,
+    to_beat: Option<f64>,
+    observer: &mut impl Observer,
+) -> Option<Outcome> {
     let pose = StartPose::new(plan, controller);
     // A design that cannot meet the brief, or starts with parts touching, is not simulated.
     if let Some(outcome) = check_before_trial(ctx, plan, &pose, controller) {
-        return outcome;
+        return Some(outcome);
     }
     let (stats, outranked) = match run_trial_to_beat(
         plan,
@@ -208,50 +246,51 @@ fn judge_at_step(
         TrialEnd::Completed(stats) => (stats, false),
         TrialEnd::Outranked(stats) => (stats, true),
         TrialEnd::Stopped { reason, at_time } => {
-            return Outcome::Invalid {
+            return Some(Outcome::Invalid {
                 reason,
                 at_time,
                 controller: *controller,
-            }
+            })
         }
+        TrialEnd::Abandoned { .. } => return None,
     };
     if stats.distance <= 0.0 {
-        return Outcome::Invalid {
+        return Some(Outcome::Invalid {
             reason: InvalidReason::NoForwardProgress {
                 distance: stats.distance,
             },
             at_time: stats.duration,
             controller: *controller,
-        };
+        });
     }
     if let Some(v) = ctx.brief.check_speed(stats.speed, ctx.limits.speed_margin) {
-        return Outcome::Rejected {
+        return Some(Outcome::Rejected {
             violations: vec![v],
             stats: Some(stats),
             controller: *controller,
-        };
+        });
     }
     let fitness = 1.0 / stats.cost_of_transport;
     if !fitness.is_finite() {
-        return Outcome::Invalid {
+        return Some(Outcome::Invalid {
             reason: InvalidReason::NonFinite {
                 what: "fitness".into(),
             },
             at_time: stats.duration,
             controller: *controller,
-        };
+        });
     }
     let features = Features::of(&genome.morphology, plan);
     let cell = ctx
         .grid
         .cell_of(&features)
         .expect("features of a valid genome are finite");
-    Outcome::Valid {
+    Some(Outcome::Valid {
         fitness,
         stats,
         features,
         cell,
         controller: *controller,
         outranked,
-    }
+    })
 }

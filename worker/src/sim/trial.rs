@@ -51,6 +51,12 @@ pub enum TrialEnd {
         /// When, s.
         at_time: f64,
     },
+    /// Its observer gave it up ([`Observer::abandoned`]): a confirming trial run beside
+    /// another that has refused the design already, whose verdict no longer counts.
+    Abandoned {
+        /// When, s.
+        at_time: f64,
+    },
 }
 
 /// The state reported to an observer after each control step.
@@ -80,6 +86,11 @@ pub trait Observer {
     /// Called after every physics step of the trial (not of the stay-up window after it)
     /// with each joint's applied torque (Nm) and speed (rad/s).
     fn physics_step(&mut self, _torques: &[f64], _speeds: &[f64]) {}
+    /// Asked before every control step: whether the trial's verdict no longer matters, so
+    /// it ends there, [`TrialEnd::Abandoned`]. Never for a trial whose answer is used.
+    fn abandoned(&self) -> bool {
+        false
+    }
 }
 
 impl<A: Observer, B: Observer> Observer for (A, B) {
@@ -91,6 +102,9 @@ impl<A: Observer, B: Observer> Observer for (A, B) {
     fn physics_step(&mut self, torques: &[f64], speeds: &[f64]) {
         self.0.physics_step(torques, speeds);
         self.1.physics_step(torques, speeds);
+    }
+    fn abandoned(&self) -> bool {
+        self.0.abandoned() || self.1.abandoned()
     }
 }
 
@@ -291,6 +305,9 @@ fn trial<O: Observer>(
         }
         let t = step as f64 * dt;
         if step % substeps == 0 {
+            if observer.abandoned() {
+                return TrialEnd::Abandoned { at_time: t };
+            }
             let control_time = (step / substeps) as f64 / settings.control_hz;
             for leg_index in 0..plan.legs.len() {
                 let q = targets_at(leg_index, control_time);
