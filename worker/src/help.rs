@@ -2,82 +2,60 @@
 //! trials.
 //!
 //! A design feasible at the run's step is tried again on two floors and at the finer step
-//! (`trial_outcome`): three trials in a fixed order, the first refusal ending it, about
-//! four fifths of a late search's simulation and, run one after another, the longest
-//! chain a generation waits for. When a simulation thread of the same worker is idle (the
-//! end of a generation, or more cores than candidates), it takes the last of those trials
-//! that nobody has started while the holder runs them from the first. The answer is the
-//! one the holder alone would give, bit for bit: each trial is a function of the design
-//! and its settings, and the first refusal in the fixed order is the verdict whoever ran
-//! which. A helper's trial that no longer counts (an earlier one refused) is abandoned at
-//! its next control step.
+//! (`trial_outcome`): trials in a fixed order, the first refusal ending it, most of a late
+//! search's simulation and, run one after another, the longest chain a generation waits
+//! for. When a simulation thread of the same pool has nothing to do (the end of a
+//! generation, or more cores than candidates), it takes the last of those trials while the
+//! holder runs them from the first. The answer is the one the holder alone would give, bit
+//! for bit: each trial is a function of the design and its settings, and the verdict is the
+//! first refusal in the fixed order whoever ran which. A helper's trial that no longer
+//! counts (an earlier one refused, or the holder panicked) is abandoned at its next
+//! control step; the time it ran is the price, paid by a thread that had nothing to do.
 //!
-//! Threads offer help only where [`Helpers::install`] was called (the worker's simulation
-//! threads); anywhere else (`fidelity`, `eval`, `verify`'s batch) a holder runs every
-//! trial itself, as before.
+//! One helper a candidate: the floors (two trials) on the holder beside the finer step (one
+//! trial of twice the steps) on the helper take about as long each, and a second helper
+//! would only run ahead of a refusal.
+//!
+//! Help is offered only on threads of a pool that [`install`]ed itself (the worker's
+//! simulation threads); anywhere else (`fidelity`, `eval`, `verify`'s batch) the holder
+//! runs every trial itself, as before.
 
+use std::any::Any;
 use std::cell::RefCell;
-use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
+use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 
-/// Work for an idle thread: one of a candidate's trials, if still unstarted.
+/// Work for a thread with nothing to do: one of a candidate's trials, if still unstarted.
 pub type Job = Box<dyn FnOnce() + Send>;
 
-/// A pool's offer of help: where jobs go, and how many of its threads wait for work.
-#[derive(Clone)]
-pub struct Helpers {
-    jobs: flume::Sender<Job>,
-    idle: Arc<AtomicUsize>,
+/// A pool that runs jobs of help on its idle threads.
+pub trait Offer: Send + Sync {
+    /// Queues `job` if one of the pool's threads is waiting for work and no other work
+    /// waits for it; whether it did.
+    fn offer(&self, job: Job) -> bool;
 }
 
 thread_local! {
-    static HELPERS: RefCell<Option<Helpers>> = const { RefCell::new(None) };
+    static POOL: RefCell<Option<Arc<dyn Offer>>> = const { RefCell::new(None) };
 }
 
-impl Helpers {
-    /// A pool's helpers and the queue its threads take jobs from.
-    pub fn new() -> (Self, flume::Receiver<Job>) {
-        let (jobs, queue) = flume::unbounded();
-        let idle = Arc::new(AtomicUsize::new(0));
-        (Self { jobs, idle }, queue)
-    }
-
-    /// Lets the trials run on this thread offer jobs to the pool's idle threads.
-    pub fn install(self) {
-        HELPERS.with(|h| *h.borrow_mut() = Some(self));
-    }
-
-    /// Runs `wait` (a thread waiting for work) counted as idle.
-    pub fn idle_while<T>(&self, wait: impl FnOnce() -> T) -> T {
-        self.idle.fetch_add(1, Ordering::SeqCst);
-        let got = wait();
-        self.idle.fetch_sub(1, Ordering::SeqCst);
-        got
-    }
+/// Lets the trials run on this thread offer help jobs to `pool` (`None`: no longer).
+pub fn install(pool: Option<Arc<dyn Offer>>) {
+    POOL.with(|p| *p.borrow_mut() = pool);
 }
 
-/// Hands up to `wanted` jobs from `job` to this thread's pool, as many as it has threads
-/// waiting for work; how many were handed.
-fn offer(wanted: usize, job: impl Fn() -> Job) -> usize {
-    HELPERS.with(|h| {
-        let h = h.borrow();
-        let Some(h) = h.as_ref() else { return 0 };
-        let n = wanted.min(h.idle.load(Ordering::SeqCst));
-        for _ in 0..n {
-            // The receiver lives as long as the pool's threads, one of which is this one.
-            let _ = h.jobs.send(job());
-        }
-        n
-    })
+/// Offers `job` to this thread's pool, if it has one; whether it was taken.
+fn offer(job: impl FnOnce() -> Job) -> bool {
+    POOL.with(|p| p.borrow().as_ref().is_some_and(|pool| pool.offer(job())))
 }
 
 /// A trial as the checks see it: `None` only when abandoned (the flag turned true).
 pub type Check<C, R> = dyn Fn(&C, &AtomicBool) -> Option<R> + Send + Sync;
 
 /// Runs `checks` in order with `run`, ending at the first result that `refuses`: its
-/// index and result, or `None` when every check passed. Idle threads of this thread's
-/// pool may run the later checks meanwhile (the module's doc); the answer is the one this
+/// index and result, or `None` when every check passed. An idle thread of this thread's
+/// pool may run the last check meanwhile (the module's doc); the answer is the one this
 /// thread alone would give.
 pub fn first_refusal<C, R>(
     checks: Vec<C>,
@@ -97,16 +75,14 @@ where
         abandon: AtomicBool::new(false),
     });
     if n > 1 {
-        offer(n - 1, || {
-            let shared = shared.clone();
-            Box::new(move || shared.help())
-        });
+        let helped = shared.clone();
+        offer(move || Box::new(move || helped.help()));
     }
     // However this thread leaves (a refusal, or a panic in its own trial), a helper's
     // trial no longer counts.
     let _leaving = AbandonOnDrop(&shared.abandon);
     for i in 0..n {
-        let result = if shared.claim(|_| Some(i)).is_some() {
+        let result = if shared.claim(Some(i)).is_some() {
             (shared.run)(&shared.checks[i], &shared.abandon)
                 .expect("nothing abandons the holder's own trial")
         } else {
@@ -119,7 +95,7 @@ where
     None
 }
 
-/// One candidate's checks, as the holder and its helpers share them.
+/// One candidate's checks, as the holder and its helper share them.
 struct Shared<C, R> {
     checks: Vec<C>,
     run: Arc<Check<C, R>>,
@@ -129,68 +105,72 @@ struct Shared<C, R> {
 }
 
 enum Slot<R> {
+    /// Nobody has started it.
     Open,
+    /// Someone runs it.
     Running,
+    /// A helper ran it.
     Done(R),
-    Panicked(String),
-    Abandoned,
+    /// A helper's trial panicked with this.
+    Panicked(Box<dyn Any + Send>),
+    /// Given up, or its result taken by the holder.
+    Over,
 }
 
 impl<C, R> Shared<C, R> {
-    /// Marks the slot `pick` chooses among the open ones running; its index.
-    fn claim(&self, pick: impl Fn(&[usize]) -> Option<usize>) -> Option<usize> {
-        let mut slots = self
-            .slots
-            .lock()
-            .expect("no thread panics holding the slots");
-        let open: Vec<usize> = (0..slots.len())
-            .filter(|&i| matches!(slots[i], Slot::Open))
-            .collect();
-        let i = pick(&open).filter(|i| open.contains(i))?;
+    fn lock(&self) -> MutexGuard<'_, Vec<Slot<R>>> {
+        // Nothing panics holding it; the slots stay consistent if something did.
+        self.slots.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Marks slot `i` running if it is open (`None`: the last open one); its index.
+    fn claim(&self, i: Option<usize>) -> Option<usize> {
+        let mut slots = self.lock();
+        let i = match i {
+            Some(i) => i,
+            None => slots.iter().rposition(|s| matches!(s, Slot::Open))?,
+        };
+        if !matches!(slots[i], Slot::Open) {
+            return None;
+        }
         slots[i] = Slot::Running;
         Some(i)
     }
 
-    /// A helper's job: the last check nobody has started, if any.
+    /// A helper's job: the last check nobody has started, if it still counts.
     fn help(&self) {
         if self.abandon.load(Ordering::SeqCst) {
             return;
         }
-        let Some(i) = self.claim(|open| open.last().copied()) else {
-            return;
-        };
+        let Some(i) = self.claim(None) else { return };
         let ran = catch_unwind(AssertUnwindSafe(|| {
             (self.run)(&self.checks[i], &self.abandon)
         }));
-        let slot = match ran {
+        self.lock()[i] = match ran {
             Ok(Some(r)) => Slot::Done(r),
-            Ok(None) => Slot::Abandoned,
-            Err(p) => Slot::Panicked(panic_message(&*p)),
+            Ok(None) => Slot::Over,
+            Err(p) => Slot::Panicked(p),
         };
-        self.slots
-            .lock()
-            .expect("no thread panics holding the slots")[i] = slot;
         self.changed.notify_all();
     }
 
-    /// The holder waits for check `i`, which a helper runs.
+    /// The holder waits for check `i`, which a helper runs; a helper's panic goes on in
+    /// the holder, as its own trial's would have.
     fn wait(&self, i: usize) -> R {
-        let mut slots = self
-            .slots
-            .lock()
-            .expect("no thread panics holding the slots");
+        let mut slots = self.lock();
         while matches!(slots[i], Slot::Running) {
             slots = self
                 .changed
                 .wait(slots)
-                .expect("no thread panics holding the slots");
+                .unwrap_or_else(PoisonError::into_inner);
         }
-        match std::mem::replace(&mut slots[i], Slot::Abandoned) {
+        let slot = std::mem::replace(&mut slots[i], Slot::Over);
+        drop(slots);
+        match slot {
             Slot::Done(r) => r,
-            // As the holder's own trial would have panicked.
-            Slot::Panicked(message) => panic!("{message}"),
-            Slot::Open | Slot::Running | Slot::Abandoned => {
-                unreachable!("a check is abandoned only once its holder has left")
+            Slot::Panicked(p) => resume_unwind(p),
+            Slot::Open | Slot::Running | Slot::Over => {
+                unreachable!("a helper's check is abandoned only once its holder has left")
             }
         }
     }
@@ -205,7 +185,7 @@ impl Drop for AbandonOnDrop<'_> {
 }
 
 /// What a panic carried, as the simulation threads report it.
-pub fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+pub fn panic_message(p: &(dyn Any + Send)) -> String {
     p.downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| p.downcast_ref::<String>().cloned())
@@ -216,116 +196,177 @@ pub fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 mod tests {
     use super::*;
     use std::sync::atomic::AtomicU32;
+    use std::sync::mpsc;
+    use std::time::Duration;
 
-    /// Checks that pass unless their number is in `refusing`, recording who ran them.
-    fn counting(refusing: &'static [u32]) -> (Arc<Check<u32, bool>>, Arc<AtomicU32>) {
+    /// Long enough for anything these tests wait for; a test that waits longer has failed.
+    const PATIENCE: Duration = Duration::from_secs(60);
+
+    /// A pool of one thread that takes every job offered.
+    struct OneHelper(Mutex<mpsc::Sender<Job>>);
+
+    impl Offer for OneHelper {
+        fn offer(&self, job: Job) -> bool {
+            self.0.lock().unwrap().send(job).is_ok()
+        }
+    }
+
+    /// `f` on this thread with a helper thread installed as its pool; the helper's
+    /// thread id, once it has run every job.
+    fn with_helper<T>(f: impl FnOnce() -> T) -> (T, std::thread::ThreadId) {
+        let (jobs, queue) = mpsc::channel::<Job>();
+        let helper = std::thread::spawn(move || {
+            for job in queue {
+                job();
+            }
+            std::thread::current().id()
+        });
+        install(Some(Arc::new(OneHelper(Mutex::new(jobs)))));
+        let out = catch_unwind(AssertUnwindSafe(f));
+        install(None);
+        let id = helper.join().unwrap();
+        match out {
+            Ok(out) => (out, id),
+            Err(p) => resume_unwind(p),
+        }
+    }
+
+    /// A helper's check that runs until it is abandoned.
+    fn until_abandoned(abandon: &AtomicBool) {
+        let deadline = std::time::Instant::now() + PATIENCE;
+        while !abandon.load(Ordering::SeqCst) {
+            assert!(std::time::Instant::now() < deadline, "never abandoned");
+            std::thread::yield_now();
+        }
+    }
+
+    /// A one-shot signal between a check and the test.
+    fn signal() -> (Mutex<mpsc::Sender<()>>, Mutex<mpsc::Receiver<()>>) {
+        let (tx, rx) = mpsc::channel();
+        (Mutex::new(tx), Mutex::new(rx))
+    }
+
+    #[test]
+    fn without_a_pool_the_holder_runs_checks_in_order_to_the_first_refusal() {
         let ran = Arc::new(AtomicU32::new(0));
         let r = ran.clone();
         let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, _: &AtomicBool| {
             r.fetch_or(1 << c, Ordering::SeqCst);
-            Some(refusing.contains(c))
+            Some(*c >= 1)
         });
-        (run, ran)
-    }
-
-    #[test]
-    fn without_helpers_the_holder_runs_checks_in_order_to_the_first_refusal() {
-        let (run, ran) = counting(&[1, 2]);
         assert_eq!(
-            first_refusal(vec![0, 1, 2, 3], run, |r| *r),
+            first_refusal(vec![0, 1, 2, 3], run.clone(), |r| *r),
             Some((1, true))
         );
         // Checks 2 and 3 never ran.
         assert_eq!(ran.load(Ordering::SeqCst), 0b0011);
-        let (run, ran) = counting(&[]);
-        assert_eq!(first_refusal(vec![0, 1, 2], run, |r| *r), None);
-        assert_eq!(ran.load(Ordering::SeqCst), 0b0111);
+        assert_eq!(first_refusal(vec![0], run, |r| *r), None);
     }
 
     #[test]
-    fn a_helper_takes_the_last_open_check_and_the_holder_uses_its_result() {
-        let (run, ran) = counting(&[2]);
-        let shared = Arc::new(Shared {
-            checks: vec![0u32, 1, 2],
-            run,
-            slots: Mutex::new((0..3).map(|_| Slot::Open).collect()),
-            changed: Condvar::new(),
-            abandon: AtomicBool::new(false),
+    fn a_helper_runs_the_last_check_and_its_refusal_is_the_verdict() {
+        // Check 0 waits until the helper has finished check 2, so the holder finds it done.
+        let (finished, wait_finished) = signal();
+        let ran_on = Arc::new(Mutex::new(Vec::new()));
+        let record = ran_on.clone();
+        let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, _: &AtomicBool| {
+            record
+                .lock()
+                .unwrap()
+                .push((*c, std::thread::current().id()));
+            match c {
+                0 => {
+                    wait_finished
+                        .lock()
+                        .unwrap()
+                        .recv_timeout(PATIENCE)
+                        .unwrap();
+                    Some(false)
+                }
+                2 => {
+                    finished.lock().unwrap().send(()).unwrap();
+                    Some(true)
+                }
+                _ => Some(false),
+            }
         });
-        let helper = shared.clone();
-        std::thread::spawn(move || helper.help()).join().unwrap();
-        assert_eq!(ran.load(Ordering::SeqCst), 0b100);
-        // The holder runs 0 and 1 and takes 2's refusal from the helper.
-        for i in 0..2 {
-            assert_eq!(shared.claim(|_| Some(i)), Some(i));
-        }
-        assert_eq!(shared.claim(|_| Some(2)), None, "2 is the helper's");
-        assert!(shared.wait(2));
-    }
-
-    /// A thread of a pool of one, waiting for work: `helpers` counts it idle on return.
-    fn helper_thread(
-        helpers: &Helpers,
-        queue: flume::Receiver<Job>,
-    ) -> std::thread::JoinHandle<()> {
-        let h = helpers.clone();
-        let t = std::thread::spawn(move || h.idle_while(|| queue.recv()).unwrap()());
-        while helpers.idle.load(Ordering::SeqCst) == 0 {
-            std::thread::yield_now();
-        }
-        t
+        let holder = std::thread::current().id();
+        let (verdict, helper) = with_helper(|| first_refusal(vec![0, 1, 2], run, |r| *r));
+        assert_eq!(verdict, Some((2, true)));
+        let mut ran_on = ran_on.lock().unwrap().clone();
+        ran_on.sort_by_key(|(c, _)| *c);
+        assert_eq!(ran_on, vec![(0, holder), (1, holder), (2, helper)]);
     }
 
     #[test]
-    fn an_idle_thread_runs_a_later_check_abandoned_when_an_earlier_one_refuses() {
-        let (helpers, queue) = Helpers::new();
-        let t = helper_thread(&helpers, queue);
-        helpers.install();
-        let (started, start) = std::sync::mpsc::channel::<()>();
-        let (started, start) = (Mutex::new(started), Mutex::new(start));
+    fn a_helpers_check_is_abandoned_when_an_earlier_one_refuses() {
+        let (started, wait_started) = signal();
         let abandoned = Arc::new(AtomicBool::new(false));
         let seen = abandoned.clone();
         let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, abandon: &AtomicBool| {
             if *c == 0 {
                 // The holder refuses once the helper has started check 1.
-                start.lock().unwrap().recv().unwrap();
+                wait_started.lock().unwrap().recv_timeout(PATIENCE).unwrap();
                 return Some(true);
             }
             started.lock().unwrap().send(()).unwrap();
-            while !abandon.load(Ordering::SeqCst) {
-                std::thread::yield_now();
-            }
+            until_abandoned(abandon);
             seen.store(true, Ordering::SeqCst);
             None
         });
-        assert_eq!(first_refusal(vec![0, 1], run, |r| *r), Some((0, true)));
-        t.join().unwrap();
+        let (verdict, _) = with_helper(|| first_refusal(vec![0, 1], run, |r| *r));
+        assert_eq!(verdict, Some((0, true)));
         assert!(
             abandoned.load(Ordering::SeqCst),
             "the helper's check was abandoned"
         );
-        HELPERS.with(|h| *h.borrow_mut() = None);
     }
 
     #[test]
-    fn a_panic_in_a_helpers_check_reaches_the_holder() {
-        let (helpers, queue) = Helpers::new();
-        let t = helper_thread(&helpers, queue);
-        helpers.install();
-        let (started, start) = std::sync::mpsc::channel::<()>();
-        let (started, start) = (Mutex::new(started), Mutex::new(start));
+    fn a_panic_in_the_helpers_check_goes_on_in_the_holder() {
+        let (finished, wait_finished) = signal();
         let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, _: &AtomicBool| {
             if *c == 0 {
-                start.lock().unwrap().recv().unwrap();
+                wait_finished
+                    .lock()
+                    .unwrap()
+                    .recv_timeout(PATIENCE)
+                    .unwrap();
                 return Some(false);
             }
-            started.lock().unwrap().send(()).unwrap();
+            finished.lock().unwrap().send(()).unwrap();
             panic!("contact manifold overflow");
         });
-        let caught =
-            catch_unwind(AssertUnwindSafe(|| first_refusal(vec![0, 1], run, |r| *r))).unwrap_err();
+        let caught = catch_unwind(AssertUnwindSafe(|| {
+            with_helper(|| first_refusal(vec![0, 1], run, |r| *r))
+        }))
+        .unwrap_err();
         assert_eq!(panic_message(&*caught), "contact manifold overflow");
-        t.join().unwrap();
-        HELPERS.with(|h| *h.borrow_mut() = None);
+    }
+
+    #[test]
+    fn a_panic_in_the_holders_check_abandons_the_helpers() {
+        let (started, wait_started) = signal();
+        let abandoned = Arc::new(AtomicBool::new(false));
+        let seen = abandoned.clone();
+        let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, abandon: &AtomicBool| {
+            if *c == 0 {
+                wait_started.lock().unwrap().recv_timeout(PATIENCE).unwrap();
+                panic!("non-finite velocity");
+            }
+            started.lock().unwrap().send(()).unwrap();
+            until_abandoned(abandon);
+            seen.store(true, Ordering::SeqCst);
+            None
+        });
+        let caught = catch_unwind(AssertUnwindSafe(|| {
+            with_helper(|| first_refusal(vec![0, 1], run, |r| *r))
+        }))
+        .unwrap_err();
+        assert_eq!(panic_message(&*caught), "non-finite velocity");
+        assert!(
+            abandoned.load(Ordering::SeqCst),
+            "the helper's check was abandoned"
+        );
     }
 }

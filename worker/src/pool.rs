@@ -8,8 +8,11 @@
 //! batch evaluator (BENCHMARKS.md, "`run` against the batch evaluator alone").
 
 use crate::evaluate::evaluate_to_enter;
-use crate::help::{panic_message, Helpers, Job};
+use crate::help::{self, panic_message, Job, Offer};
+use std::collections::VecDeque;
 use std::num::NonZeroUsize;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Instant;
 use strider_common::rng::CandidateSeed;
 use strider_common::EvalContext;
@@ -54,16 +57,86 @@ enum Work<K> {
 /// never answered) until the run hung.
 fn answer_trial<K>(t: Trial<K>, eval: Evaluate) {
     let start = Instant::now();
-    let outcome = std::panic::catch_unwind(|| eval(&t.ctx, &t.genome, t.scheme, t.seed, t.to_beat))
+    let outcome = catch_unwind(|| eval(&t.ctx, &t.genome, t.scheme, t.seed, t.to_beat))
         .map_err(|p| panic_message(&*p));
     let seconds = start.elapsed().as_secs_f64();
     drop(t.core);
     let _ = t.answer.send((t.key, outcome, seconds));
 }
 
-/// The simulation threads. Dropping the pool lets them finish the trial in hand and end.
+/// The threads' work: trials, and jobs of help (crate::help), under one lock so that a
+/// thread waiting for either is woken by both and counted idle exactly.
+struct Queue<K> {
+    state: Mutex<QueueState<K>>,
+    ready: Condvar,
+}
+
+struct QueueState<K> {
+    trials: VecDeque<Trial<K>>,
+    help: VecDeque<Job>,
+    /// Threads waiting for work.
+    idle: usize,
+    /// The pool was dropped: threads end once no trial waits.
+    closed: bool,
+}
+
+impl<K> Queue<K> {
+    fn new() -> Self {
+        Self {
+            state: Mutex::new(QueueState {
+                trials: VecDeque::new(),
+                help: VecDeque::new(),
+                idle: 0,
+                closed: false,
+            }),
+            ready: Condvar::new(),
+        }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, QueueState<K>> {
+        // Nothing panics holding it; a poisoned lock still holds consistent queues.
+        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The next work, a trial before a job of help; `None` once the pool is dropped and
+    /// nothing waits.
+    fn next(&self) -> Option<Work<K>> {
+        let mut s = self.lock();
+        loop {
+            if let Some(t) = s.trials.pop_front() {
+                return Some(Work::Trial(t));
+            }
+            if let Some(job) = s.help.pop_front() {
+                return Some(Work::Help(job));
+            }
+            if s.closed {
+                return None;
+            }
+            s.idle += 1;
+            s = self.ready.wait(s).unwrap_or_else(PoisonError::into_inner);
+            s.idle -= 1;
+        }
+    }
+}
+
+impl<K: Send> Offer for Queue<K> {
+    fn offer(&self, job: Job) -> bool {
+        let mut s = self.lock();
+        // Only for a thread that would otherwise wait: one per job or trial waiting.
+        if s.idle <= s.help.len() + s.trials.len() {
+            return false;
+        }
+        s.help.push_back(job);
+        drop(s);
+        self.ready.notify_one();
+        true
+    }
+}
+
+/// The simulation threads. Dropping the pool lets them finish the trials handed to them
+/// and end.
 pub struct SimPool<K> {
-    trials: flume::Sender<Trial<K>>,
+    queue: Arc<Queue<K>>,
 }
 
 impl<K: Send + 'static> SimPool<K> {
@@ -72,55 +145,48 @@ impl<K: Send + 'static> SimPool<K> {
         Self::with(threads, evaluate_to_enter)
     }
 
-    /// Starts `threads` threads that run `eval` for each trial ([`answer_trial`]); an idle one helps
-    /// another with its confirming trials (crate::help).
+    /// Starts `threads` threads that run `eval` for each trial ([`answer_trial`]); one
+    /// with nothing to do helps another with its confirming trials (crate::help).
     pub fn with(threads: NonZeroUsize, eval: Evaluate) -> std::io::Result<Self> {
-        let (trials, queue) = flume::unbounded::<Trial<K>>();
-        let (helpers, help_queue) = Helpers::new();
+        let queue = Arc::new(Queue::new());
         for i in 0..threads.get() {
             let queue = queue.clone();
-            let help_queue = help_queue.clone();
-            let helpers = helpers.clone();
             std::thread::Builder::new()
                 .name(format!("strider-sim-{i}"))
                 .spawn(move || {
-                    helpers.clone().install();
-                    // A trial first (it holds a core); else another thread's confirming
-                    // trial (crate::help); else wait, counted idle, for either.
-                    loop {
-                        let work = match queue.try_recv() {
-                            Ok(t) => Work::Trial(t),
-                            Err(flume::TryRecvError::Disconnected) => break,
-                            Err(flume::TryRecvError::Empty) => match help_queue.try_recv() {
-                                Ok(job) => Work::Help(job),
-                                Err(_) => match helpers.idle_while(|| {
-                                    flume::Selector::new()
-                                        .recv(&queue, |t| t.map(Work::Trial))
-                                        .recv(&help_queue, |j| j.map(Work::Help))
-                                        .wait()
-                                }) {
-                                    Ok(work) => work,
-                                    // The pool was dropped (its helpers' queue never is).
-                                    Err(_) => break,
-                                },
-                            },
-                        };
+                    help::install(Some(queue.clone() as Arc<dyn Offer>));
+                    while let Some(work) = queue.next() {
                         match work {
                             Work::Trial(t) => answer_trial(t, eval),
-                            Work::Help(job) => job(),
+                            // A job catches its trial's panic for its holder; this only
+                            // keeps the thread should the job itself fail.
+                            Work::Help(job) => {
+                                if let Err(p) = catch_unwind(AssertUnwindSafe(job)) {
+                                    tracing::error!(
+                                        "a confirming trial's helper failed: {}",
+                                        panic_message(&*p)
+                                    );
+                                }
+                            }
                         }
                     }
                 })?;
         }
-        Ok(Self { trials })
+        Ok(Self { queue })
     }
 
-    /// Hands a trial to the next free thread (callers hold a core permit, so one is free
-    /// or about to be).
+    /// Hands a trial to the next free thread (callers hold a core permit, so a thread is
+    /// free or about to be; one may first finish a trial it took to help another).
     pub fn run(&self, trial: Trial<K>) {
-        self.trials
-            .send(trial)
-            .expect("simulation threads live as long as the pool");
+        self.queue.lock().trials.push_back(trial);
+        self.queue.ready.notify_one();
+    }
+}
+
+impl<K> Drop for SimPool<K> {
+    fn drop(&mut self) {
+        self.queue.lock().closed = true;
+        self.queue.ready.notify_all();
     }
 }
 
@@ -128,7 +194,6 @@ impl<K: Send + 'static> SimPool<K> {
 mod tests {
     use super::*;
     use crate::evaluate::evaluate;
-    use std::sync::Arc;
     use strider_common::rng::CandidateSeed;
     use strider_common::InvalidReason;
     use tokio::sync::Semaphore;
@@ -238,12 +303,31 @@ mod tests {
         let ctx = EvalContext::paper();
         let pool = SimPool::new(NonZeroUsize::new(3).unwrap()).unwrap();
         let cores = Arc::new(Semaphore::new(3));
-        for name in [
-            "walks_on_every_floor.json",
-            "tips_on_the_grippy_floor.json",
-            "meets_the_brief_at_the_finer_step_then_falls.json",
-            "falls_at_the_finer_step_only.json",
-        ] {
+        let verdict = |o: &Outcome| match o {
+            Outcome::Valid { .. } => "feasible".to_string(),
+            Outcome::Invalid {
+                reason: InvalidReason::FrictionSensitive { friction, .. },
+                ..
+            } => format!("refused at friction {friction}"),
+            Outcome::Invalid {
+                reason: InvalidReason::StepSensitive { .. },
+                ..
+            } => "refused at the finer step".into(),
+            other => format!("{other:?}"),
+        };
+        let designs = [
+            ("walks_on_every_floor.json", "feasible"),
+            ("tips_on_the_grippy_floor.json", "refused at friction 1"),
+            (
+                "meets_the_brief_at_the_finer_step_then_falls.json",
+                "refused at friction 0.6",
+            ),
+            (
+                "falls_at_the_finer_step_only.json",
+                "refused at the finer step",
+            ),
+        ];
+        for (name, expected) in designs {
             let genome = Genome::load(
                 &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                     .join("tests/fixtures")
@@ -265,21 +349,54 @@ mod tests {
             });
             let (_, helped, _) = answers.recv_async().await.unwrap();
             let alone = evaluate(&ctx, &genome, Scheme::Static, seed);
-            println!("{name}: {alone:?}");
-            assert!(
-                matches!(alone, Outcome::Valid { .. })
-                    || matches!(
-                        alone,
-                        Outcome::Invalid {
-                            reason: InvalidReason::FrictionSensitive { .. }
-                                | InvalidReason::StepSensitive { .. },
-                            ..
-                        }
-                    ),
-                "{name} reaches the confirming trials: {alone:?}"
-            );
+            assert_eq!(verdict(&alone), expected, "{name}");
             assert_eq!(helped, Ok(alone), "{name}");
         }
         assert_eq!(cores.available_permits(), 3);
+    }
+
+    #[test]
+    fn trials_come_before_help_and_help_goes_only_to_a_thread_with_nothing_to_do() {
+        let queue = Queue::<u32>::new();
+        assert!(!queue.offer(Box::new(|| ())), "no thread waits");
+        queue.lock().idle = 1;
+        assert!(queue.offer(Box::new(|| ())));
+        assert!(
+            !queue.offer(Box::new(|| ())),
+            "the one waiting thread has a job already"
+        );
+        let cores = Arc::new(Semaphore::new(1));
+        let (answer, _answers) = flume::unbounded();
+        queue.lock().trials.push_back(Trial {
+            key: 7,
+            ctx: EvalContext::paper(),
+            genome: strider_common::reference::max(),
+            scheme: Scheme::Static,
+            seed: CandidateSeed::new(0, 0),
+            to_beat: None,
+            core: cores.try_acquire_owned().unwrap(),
+            answer,
+        });
+        queue.lock().idle = 0;
+        assert!(matches!(
+            queue.next(),
+            Some(Work::Trial(Trial { key: 7, .. }))
+        ));
+        assert!(matches!(queue.next(), Some(Work::Help(_))));
+        queue.lock().closed = true;
+        assert!(queue.next().is_none(), "closed and empty: the thread ends");
+    }
+
+    #[test]
+    fn dropping_the_pool_ends_its_threads() {
+        let pool = SimPool::<u32>::new(NonZeroUsize::new(2).unwrap()).unwrap();
+        let queue = Arc::downgrade(&pool.queue);
+        drop(pool);
+        // Each thread holds the queue until it ends.
+        let deadline = Instant::now() + std::time::Duration::from_secs(60);
+        while queue.upgrade().is_some() {
+            assert!(Instant::now() < deadline, "the threads did not end");
+            std::thread::yield_now();
+        }
     }
 }

@@ -77,9 +77,10 @@ pub fn evaluate_controller_against(
 /// `outcome` (the run's trial) if it is not feasible or every confirming trial finds it
 /// feasible too: on the floor with more grip and the one with less (else invalid,
 /// `friction_sensitive`), then at the finer step (else `step_sensitive`). The first that
-/// fails ends it, so a design that fails pays only the trials up to that one; idle
-/// simulation threads may run the later ones meanwhile (crate::help), which changes
-/// nothing but when the answer comes.
+/// fails ends it, so a design that fails pays only the trials up to that one. An idle
+/// simulation thread may run the last meanwhile (crate::help): the verdict is the same,
+/// the answer comes sooner, and a trial it ran that no longer counts was that thread's
+/// idle time.
 fn confirm(
     ctx: &EvalContext,
     genome: &Genome,

@@ -52,7 +52,8 @@ pub enum TrialEnd {
         at_time: f64,
     },
     /// Its observer gave it up ([`Observer::abandoned`]): a confirming trial run beside
-    /// another that has refused the design already, whose verdict no longer counts.
+    /// the others (crate::help) whose verdict no longer counts, one before it having
+    /// refused the design or its holder having panicked.
     Abandoned {
         /// When, s.
         at_time: f64,
