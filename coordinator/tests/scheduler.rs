@@ -722,3 +722,39 @@ fn the_fraction_done_counts_initial_designs_and_generations_over_the_budget() {
     assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
     assert!(seen.iter().any(|&f| f > 0.3 && f < 0.7), "{seen:?}");
 }
+
+#[test]
+fn demand_is_open_while_an_initial_population_grows_then_the_step_in_hand() {
+    // One run: the demand a worker's fair share of leases is taken from (the service).
+    let e = Experiment::from_toml(
+        r#"
+name = "demand"
+schemes = ["static"]
+repeats = 1
+seed = 5
+[run]
+initial_population = 6
+offspring_per_generation = 10
+generations = 3
+"#,
+    )
+    .unwrap();
+    let mut s = fresh(&e, 3);
+    let now = Instant::now();
+    let worker = WorkerId(0);
+    assert_eq!(s.demand(), None, "the initial population is drawn as asked");
+    while s.demand().is_none() {
+        for a in s.lease(worker, now, 1) {
+            s.accept(worker, a.key, outcome_of(&e, &a), 0.0).unwrap();
+        }
+    }
+    // Generation 1: its 10 offspring, leased or not, until answered.
+    assert_eq!(s.demand(), Some(10));
+    let leased = s.lease(worker, now, 4);
+    assert_eq!(leased.len(), 4);
+    assert_eq!(s.demand(), Some(10), "leased candidates are still wanted");
+    for a in &leased[..3] {
+        s.accept(worker, a.key, outcome_of(&e, a), 0.0).unwrap();
+    }
+    assert_eq!(s.demand(), Some(7));
+}

@@ -117,6 +117,8 @@ pub struct Shared {
     finished: watch::Sender<bool>,
     /// Worker connections now.
     workers: AtomicU32,
+    /// Their slots (candidates each keeps in hand), summed: their shares of a scarce step.
+    slots: AtomicUsize,
     next_worker: AtomicU64,
     throughput: Mutex<Throughput>,
     started: Instant,

@@ -13,7 +13,7 @@ use crate::qd::scheduler::Scheduler;
 use std::future::Future;
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, AtomicU64};
+use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strider_common::initial_designs::InitialDesigns;
@@ -253,6 +253,7 @@ async fn start_scheduler(
         steps: watch::Sender::new(0),
         finished: watch::Sender::new(false),
         workers: AtomicU32::new(0),
+        slots: AtomicUsize::new(0),
         next_worker: AtomicU64::new(next_worker.0),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),

@@ -243,6 +243,27 @@ impl Scheduler {
         })
     }
 
+    /// How many candidates its runs have for workers now: those of the steps in hand not
+    /// yet answered (waiting or leased); `None` while an initial population can still be
+    /// drawn (as many as asked for).
+    pub fn demand(&self) -> Option<usize> {
+        let mut n = 0;
+        for (i, r) in self.runs.iter().enumerate() {
+            if r.record.finished {
+                continue;
+            }
+            if self.initial_phase(i) && r.frontier < r.draw_limit {
+                return None;
+            }
+            n += r
+                .step
+                .values()
+                .filter(|p| !matches!(p.state, State::Resolved(_)))
+                .count();
+        }
+        Some(n)
+    }
+
     /// Steps applied since this scheduler started (watchers wait for it to change).
     pub fn steps_applied(&self) -> u64 {
         self.steps_applied
