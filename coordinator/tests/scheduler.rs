@@ -14,7 +14,7 @@ use strider_coordinator::qd::changes::Write;
 use strider_coordinator::qd::library::{InfeasibleLibrary, Library, Placement};
 use strider_coordinator::qd::run::RunRecord;
 use strider_coordinator::qd::scheduler::{
-    fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler,
+    fair_share, fraction_done, Accepted, Assignment, Refusal, RunProgress, Scheduler,
 };
 use strider_worker::synthetic::instant_outcome;
 
@@ -724,11 +724,38 @@ fn the_fraction_done_counts_initial_designs_and_generations_over_the_budget() {
 }
 
 #[test]
-fn demand_is_open_while_an_initial_population_grows_then_the_step_in_hand() {
-    // One run: the demand a worker's fair share of leases is taken from (the service).
+fn workers_share_a_scarce_step_by_their_slots_and_the_shares_cover_it() {
+    // One run's generation of 60 and two workers of 32 threads (64 slots): 30 each, not 60
+    // to whichever asks first.
+    assert_eq!(fair_share(60, 64, 128), 30);
+    // Alone, a worker may take all of it.
+    assert_eq!(fair_share(60, 4, 4), 60);
+    // A worker of 2 threads beside one of 32.
+    assert_eq!(fair_share(60, 4, 68), 4);
+    assert_eq!(fair_share(60, 64, 68), 57);
+    for demand in 0..200 {
+        for mix in [
+            &[4, 4][..],
+            &[2, 64, 64],
+            &[4, 8, 16, 128],
+            &[1, 1, 1, 1, 1, 1, 1],
+        ] {
+            let all: usize = mix.iter().sum();
+            let shares: usize = mix.iter().map(|&s| fair_share(demand, s, all)).sum();
+            assert!(shares >= demand, "{demand} over {mix:?}: {shares}");
+            for &s in mix {
+                assert!(fair_share(demand, s, all) <= demand);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_workers_lease_is_capped_at_its_share_of_a_scarce_step_only() {
+    // One run; two workers of 64 slots each.
     let e = Experiment::from_toml(
         r#"
-name = "demand"
+name = "shares"
 schemes = ["static"]
 repeats = 1
 seed = 5
@@ -741,20 +768,38 @@ generations = 3
     .unwrap();
     let mut s = fresh(&e, 3);
     let now = Instant::now();
-    let worker = WorkerId(0);
-    assert_eq!(s.demand(), None, "the initial population is drawn as asked");
-    while s.demand().is_none() {
-        for a in s.lease(worker, now, 1) {
-            s.accept(worker, a.key, outcome_of(&e, &a), 0.0).unwrap();
+    let (a, b) = (WorkerId(0), WorkerId(1));
+    assert_eq!(
+        s.lease_cap(a, 64, 128),
+        None,
+        "initial designs are drawn as asked"
+    );
+    for _ in 0..1000 {
+        if s.lease_cap(a, 64, 128).is_some() {
+            break;
+        }
+        for l in s.lease(a, now, 1) {
+            s.accept(a, l.key, outcome_of(&e, &l), 0.0).unwrap();
         }
     }
-    // Generation 1: its 10 offspring, leased or not, until answered.
-    assert_eq!(s.demand(), Some(10));
-    let leased = s.lease(worker, now, 4);
-    assert_eq!(leased.len(), 4);
-    assert_eq!(s.demand(), Some(10), "leased candidates are still wanted");
-    for a in &leased[..3] {
-        s.accept(worker, a.key, outcome_of(&e, a), 0.0).unwrap();
+    // Generation 1: 10 offspring (fewer once the prechecks settle some), half each.
+    let Some(half) = s.lease_cap(a, 64, 128) else {
+        panic!("generation 1 never opened");
+    };
+    assert!((1..=5).contains(&half), "{half}");
+    let leased = s.lease(a, now, half);
+    assert_eq!(leased.len(), half);
+    assert_eq!(s.lease_cap(a, 64, 128), Some(0), "a holds its share");
+    assert_eq!(
+        s.lease_cap(b, 64, 128),
+        Some(half),
+        "b's share is untouched"
+    );
+    // Answered candidates leave the demand: a's share shrinks with it.
+    for l in &leased {
+        s.accept(a, l.key, outcome_of(&e, l), 0.0).unwrap();
     }
-    assert_eq!(s.demand(), Some(7));
+    assert!(s.lease_cap(a, 64, 128).unwrap() < half);
+    // Slots fewer than the candidates: no cap.
+    assert_eq!(s.lease_cap(a, 1, 1), None);
 }

@@ -120,19 +120,6 @@ impl WorkerService for WorkerApi {
     }
 }
 
-/// A worker's share of `demand` candidates (those of the steps in hand, leased or not):
-/// in proportion to its slots among `all_slots`, those of every worker connected, rounded
-/// up so that the shares cover the demand. A worker keeps twice its threads in hand, so one
-/// of 30 threads or more would otherwise lease a whole generation of a one-run experiment
-/// (60 candidates) while the others waited for the next.
-fn fair_share(demand: usize, slots: usize, all_slots: usize) -> usize {
-    if all_slots <= slots {
-        // Alone (or the sum lags a connection).
-        return demand;
-    }
-    (demand * slots).div_ceil(all_slots)
-}
-
 struct Session {
     shared: Arc<Shared>,
     id: WorkerId,
@@ -242,9 +229,12 @@ impl Session {
             }
         };
         let why = reason.clone();
-        self.shared.with(true, |s| s.disconnect(self.id, &why));
+        // Before the others are woken to lease what it held: their shares without its slots.
         self.shared.workers.fetch_sub(1, Ordering::Relaxed);
-        self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
+        if !self.draining {
+            self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
+        }
+        self.shared.with(true, |s| s.disconnect(self.id, &why));
         self.shared.write(vec![Write::WorkerLeft {
             id: self.id,
             results: self.results,
@@ -264,13 +254,12 @@ impl Session {
         if room == 0 || self.draining {
             return Ok(());
         }
-        let (id, held, slots) = (self.id, self.held.len(), self.slots);
+        let (id, slots) = (self.id, self.slots);
         let all_slots = self.shared.slots.load(Ordering::Relaxed);
         let leased = self.shared.with(false, |s| {
-            let room = match s.demand() {
-                Some(demand) => room.min(fair_share(demand, slots, all_slots).saturating_sub(held)),
-                None => room,
-            };
+            let room = s
+                .lease_cap(id, slots, all_slots)
+                .map_or(room, |cap| room.min(cap));
             s.lease(id, Instant::now(), room)
         });
         for a in leased {
@@ -323,6 +312,10 @@ impl Session {
                     .collect::<Result<Vec<_>, _>>()?;
                 for k in &keys {
                     self.held.remove(k);
+                }
+                if !self.draining {
+                    // Leaving: the others' shares no longer count its slots.
+                    self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
                 }
                 self.draining = true;
                 let id = self.id;
@@ -380,37 +373,5 @@ impl Session {
             .record(second);
         tracing::trace!(worker = id.0, %key, ?accepted, "result");
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::fair_share;
-
-    #[test]
-    fn workers_share_a_scarce_step_by_their_slots_and_the_shares_cover_it() {
-        // One run's generation of 60 and two workers of 32 threads (64 slots): 30 each,
-        // not 60 to whichever asks first.
-        assert_eq!(fair_share(60, 64, 128), 30);
-        // Alone, a worker may take all of it.
-        assert_eq!(fair_share(60, 4, 4), 60);
-        // A worker of 2 threads beside one of 32.
-        assert_eq!(fair_share(60, 4, 68), 4);
-        assert_eq!(fair_share(60, 64, 68), 57);
-        for demand in 0..200 {
-            for mix in [
-                &[4, 4][..],
-                &[2, 64, 64],
-                &[4, 8, 16, 128],
-                &[1, 1, 1, 1, 1, 1, 1],
-            ] {
-                let all: usize = mix.iter().sum();
-                let shares: usize = mix.iter().map(|&s| fair_share(demand, s, all)).sum();
-                assert!(shares >= demand, "{demand} over {mix:?}: {shares}");
-                for &s in mix {
-                    assert!(fair_share(demand, s, all) <= demand);
-                }
-            }
-        }
     }
 }

@@ -131,6 +131,15 @@ struct RunState {
     draw_limit: u64,
 }
 
+/// A worker's share of `demand` candidates: in proportion to its `slots` among
+/// `all_slots`, rounded up so that the shares cover the demand ([`Scheduler::lease_cap`]).
+pub fn fair_share(demand: usize, slots: usize, all_slots: usize) -> usize {
+    if all_slots <= slots {
+        return demand;
+    }
+    (demand * slots).div_ceil(all_slots)
+}
+
 /// Every run of an experiment being served.
 pub struct Scheduler {
     experiment: Experiment,
@@ -243,11 +252,16 @@ impl Scheduler {
         })
     }
 
-    /// How many candidates its runs have for workers now: those of the steps in hand not
-    /// yet answered (waiting or leased); `None` while an initial population can still be
-    /// drawn (as many as asked for).
-    pub fn demand(&self) -> Option<usize> {
-        let mut n = 0;
+    /// How many more candidates `worker` (of `slots`, among `all_slots` of every worker
+    /// connected) may lease now: `None` for as many as it has room for. Where the steps in
+    /// hand have fewer candidates not yet answered (waiting or leased) than the workers have
+    /// slots, each worker gets at most its [`fair_share`] of them, less what it holds; a
+    /// worker keeps twice its threads in hand, so one of 30 threads or more would otherwise
+    /// lease a whole generation of a one-run experiment while the others waited. No cap
+    /// while any run can still draw initial designs (as many as asked for, up to its
+    /// window).
+    pub fn lease_cap(&self, worker: WorkerId, slots: usize, all_slots: usize) -> Option<usize> {
+        let (mut unanswered, mut held) = (0, 0);
         for (i, r) in self.runs.iter().enumerate() {
             if r.record.finished {
                 continue;
@@ -255,13 +269,22 @@ impl Scheduler {
             if self.initial_phase(i) && r.frontier < r.draw_limit {
                 return None;
             }
-            n += r
-                .step
-                .values()
-                .filter(|p| !matches!(p.state, State::Resolved(_)))
-                .count();
+            for p in r.step.values() {
+                match p.state {
+                    State::Resolved(_) => {}
+                    State::Waiting => unanswered += 1,
+                    State::Leased { worker: w, .. } => {
+                        unanswered += 1;
+                        held += usize::from(w == worker);
+                    }
+                }
+            }
+            // Enough for every slot: the share could not bind.
+            if unanswered >= all_slots {
+                return None;
+            }
         }
-        Some(n)
+        Some(fair_share(unanswered, slots, all_slots).saturating_sub(held))
     }
 
     /// Steps applied since this scheduler started (watchers wait for it to change).
