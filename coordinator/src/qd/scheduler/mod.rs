@@ -27,9 +27,11 @@ use strider_common::{
 use strider_common::{EvalContext, RunId, WorkerId};
 
 mod progress;
+mod shares;
 mod steps;
 
 pub use progress::{fraction_done, RunProgress};
+pub use shares::fair_share;
 pub use steps::cell_of;
 
 /// The most initial-population candidates a run draws ahead of the first one not yet
@@ -129,15 +131,6 @@ struct RunState {
     frontier: u64,
     /// Draw no initial candidate from this number on (a replay of stored history).
     draw_limit: u64,
-}
-
-/// A worker's share of `demand` candidates: in proportion to its `slots` among
-/// `all_slots`, rounded up so that the shares cover the demand ([`Scheduler::lease_cap`]).
-pub fn fair_share(demand: usize, slots: usize, all_slots: usize) -> usize {
-    if all_slots <= slots {
-        return demand;
-    }
-    (demand * slots).div_ceil(all_slots)
 }
 
 /// Every run of an experiment being served.
@@ -250,41 +243,6 @@ impl Scheduler {
                         && window(r)
                         && r.frontier < r.draw_limit))
         })
-    }
-
-    /// How many more candidates `worker` (of `slots`, among `all_slots` of every worker
-    /// connected) may lease now: `None` for as many as it has room for. Where the steps in
-    /// hand have fewer candidates not yet answered (waiting or leased) than the workers have
-    /// slots, each worker gets at most its [`fair_share`] of them, less what it holds; a
-    /// worker keeps twice its threads in hand, so one of 30 threads or more would otherwise
-    /// lease a whole generation of a one-run experiment while the others waited. No cap
-    /// while any run can still draw initial designs (as many as asked for, up to its
-    /// window).
-    pub fn lease_cap(&self, worker: WorkerId, slots: usize, all_slots: usize) -> Option<usize> {
-        let (mut unanswered, mut held) = (0, 0);
-        for (i, r) in self.runs.iter().enumerate() {
-            if r.record.finished {
-                continue;
-            }
-            if self.initial_phase(i) && r.frontier < r.draw_limit {
-                return None;
-            }
-            for p in r.step.values() {
-                match p.state {
-                    State::Resolved(_) => {}
-                    State::Waiting => unanswered += 1,
-                    State::Leased { worker: w, .. } => {
-                        unanswered += 1;
-                        held += usize::from(w == worker);
-                    }
-                }
-            }
-            // Enough for every slot: the share could not bind.
-            if unanswered >= all_slots {
-                return None;
-            }
-        }
-        Some(fair_share(unanswered, slots, all_slots).saturating_sub(held))
     }
 
     /// Steps applied since this scheduler started (watchers wait for it to change).
