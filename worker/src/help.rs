@@ -298,22 +298,30 @@ mod tests {
         assert_eq!(ran_on, vec![(0, holder), (1, holder), (2, helper)]);
     }
 
-    #[test]
-    fn a_helpers_check_is_abandoned_when_an_earlier_one_refuses() {
+    /// Two checks: the holder's (0) waits until the helper has started check 1, then
+    /// gives `holder()`; the helper's runs until abandoned. Also whether it was.
+    fn holder_beside_a_helper_until_abandoned(
+        holder: fn() -> Option<bool>,
+    ) -> (Arc<Check<u32, bool>>, Arc<AtomicBool>) {
         let (started, wait_started) = signal();
         let abandoned = Arc::new(AtomicBool::new(false));
         let seen = abandoned.clone();
         let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, abandon: &AtomicBool| {
             if *c == 0 {
-                // The holder refuses once the helper has started check 1.
                 wait_started.lock().unwrap().recv_timeout(PATIENCE).unwrap();
-                return Some(true);
+                return holder();
             }
             started.lock().unwrap().send(()).unwrap();
             until_abandoned(abandon);
             seen.store(true, Ordering::SeqCst);
             None
         });
+        (run, abandoned)
+    }
+
+    #[test]
+    fn a_helpers_check_is_abandoned_when_an_earlier_one_refuses() {
+        let (run, abandoned) = holder_beside_a_helper_until_abandoned(|| Some(true));
         let (verdict, _) = with_helper(|| first_refusal(vec![0, 1], run, |r| *r));
         assert_eq!(verdict, Some((0, true)));
         assert!(
@@ -346,19 +354,8 @@ mod tests {
 
     #[test]
     fn a_panic_in_the_holders_check_abandons_the_helpers() {
-        let (started, wait_started) = signal();
-        let abandoned = Arc::new(AtomicBool::new(false));
-        let seen = abandoned.clone();
-        let run: Arc<Check<u32, bool>> = Arc::new(move |c: &u32, abandon: &AtomicBool| {
-            if *c == 0 {
-                wait_started.lock().unwrap().recv_timeout(PATIENCE).unwrap();
-                panic!("non-finite velocity");
-            }
-            started.lock().unwrap().send(()).unwrap();
-            until_abandoned(abandon);
-            seen.store(true, Ordering::SeqCst);
-            None
-        });
+        let (run, abandoned) =
+            holder_beside_a_helper_until_abandoned(|| panic!("non-finite velocity"));
         let caught = catch_unwind(AssertUnwindSafe(|| {
             with_helper(|| first_refusal(vec![0, 1], run, |r| *r))
         }))

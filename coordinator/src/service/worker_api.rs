@@ -231,9 +231,7 @@ impl Session {
         let why = reason.clone();
         // Before the others are woken to lease what it held: their shares without its slots.
         self.shared.workers.fetch_sub(1, Ordering::Relaxed);
-        if !self.draining {
-            self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
-        }
+        self.stop_leasing();
         self.shared.with(true, |s| s.disconnect(self.id, &why));
         self.shared.write(vec![Write::WorkerLeft {
             id: self.id,
@@ -246,6 +244,16 @@ impl Session {
             results = self.results,
             "worker left: {reason}"
         );
+    }
+
+    /// The worker is leaving (it gave candidates back, or its session ended): it is leased
+    /// nothing more, and the others' shares of a scarce step no longer count its slots.
+    /// Once, whichever comes first.
+    fn stop_leasing(&mut self) {
+        if !self.draining {
+            self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
+            self.draining = true;
+        }
     }
 
     /// Leases candidates until the worker's slots are full or none is available.
@@ -313,11 +321,7 @@ impl Session {
                 for k in &keys {
                     self.held.remove(k);
                 }
-                if !self.draining {
-                    // Leaving: the others' shares no longer count its slots.
-                    self.shared.slots.fetch_sub(self.slots, Ordering::Relaxed);
-                }
-                self.draining = true;
+                self.stop_leasing();
                 let id = self.id;
                 self.shared.with(true, |s| s.release(id, &keys));
                 Ok(())
