@@ -209,7 +209,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         }
     };
     outln!(
-        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current model in BENCHMARKS.md took 0.3x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials) to 1.8x (the quick experiment, started from designs that meet it) of this figure, 2.1x a search started from 400 such designs",
+        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current model in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials) to 1.5x (the quick experiment, started from designs that meet it) of this figure, 2.3x a search started from 200 such designs",
         cores,
         hours_text(all_walked / 3600.0),
         thread_seconds * 1e3,
