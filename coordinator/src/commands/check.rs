@@ -192,11 +192,10 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     let (thread_seconds, all_walked, source) = match calibrate.then(|| measure(&e, cores, trials)) {
         Some(Some(measured)) => measured,
         not_measured => {
-            // MAX's physics step, s of one core: 83 us at 4948ba9, which the run-to-estimate
-            // ratios below were measured against; the step got 0.755x as dear at 86fe310
-            // and 0.79x as dear again since, with the same bits (calibrations 97.3 ->
-            // 73.5 -> 57.6 ms, BENCHMARKS.md), and runs with it, so the ratios stand.
-            let per_trial = plain_trial / e.run.physics_dt() * 0.050e-3;
+            // MAX's physics step, s of one core on the development machine at 84f7368
+            // (calibrations of 53.6 to 54.8 ms for its 1,440 steps, BENCHMARKS.md), the
+            // figure the run-to-estimate ratios below were measured against.
+            let per_trial = plain_trial / e.run.physics_dt() * 0.038e-3;
             let why = match not_measured {
                 None => "--no-calibration",
                 _ => "this build has no simulator",
@@ -209,7 +208,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         }
     };
     outln!(
-        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current model in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials) to 1.5x (the quick experiment, started from designs that meet it) of this figure, 2.3x a search started from 200 such designs",
+        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current build in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials) to 1.5x (the quick experiment, started from designs that meet it) of this figure, 2.3x a search started from 200 such designs",
         cores,
         hours_text(all_walked / 3600.0),
         thread_seconds * 1e3,
