@@ -394,6 +394,7 @@ async fn wind_down(
 /// next time (the run goes on: the live database is intact).
 async fn back_up_periodically(db: Db, backup: Backup) {
     let mut every = tokio::time::interval(backup.every);
+    every.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     every.tick().await;
     loop {
         every.tick().await;
@@ -471,6 +472,8 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
                 }
             }
             let mut every = tokio::time::interval(period);
+            // After a stop (SIGSTOP, a suspended laptop) one line, not one per missed period.
+            every.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
             every.tick().await;
             loop {
                 every.tick().await;
