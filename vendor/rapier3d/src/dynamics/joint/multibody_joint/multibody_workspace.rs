@@ -24,6 +24,9 @@ pub(crate) struct MultibodyWorkspace {
     pub coriolis: Vec<Vec<Real>>,
     /// Strider patch: one link's Coriolis terms melded with its mass, in the same layout.
     pub coriolis_dt: Vec<Real>,
+    /// Strider patch: what forward kinematics reads, written before it is compared with
+    /// the last call's (`Multibody::record_kinematics_inputs`).
+    pub kinematics_inputs: Vec<u32>,
 }
 
 /// Strider patch: a copy has the workspace's sizes and none of its contents, which every
@@ -50,6 +53,7 @@ impl MultibodyWorkspace {
             jacobian_blocks: Vec::new(),
             coriolis: Vec::new(),
             coriolis_dt: Vec::new(),
+            kinematics_inputs: Vec::new(),
         }
     }
 
