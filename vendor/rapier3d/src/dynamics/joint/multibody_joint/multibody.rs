@@ -128,8 +128,9 @@ pub struct Multibody {
     /// `<equality><joint>`. Resolved as velocity constraints each step.
     couplings: Vec<MultibodyDofCoupling>,
     /// Strider patch: the bits the last [`Self::forward_kinematics`] read
-    /// ([`Self::record_kinematics_inputs`]); a call that finds them unchanged leaves the
-    /// poses and Jacobians it computed, the same bits.
+    /// ([`Self::kinematics_inputs_unchanged`]), stored once it has computed from them; a
+    /// call that finds them unchanged leaves the poses and Jacobians it computed, the same
+    /// bits.
     kinematics_inputs: Vec<u32>,
 
     /*
@@ -1651,12 +1652,13 @@ impl Multibody {
         }
     }
 
-    /// Strider patch: records everything [`Self::forward_kinematics`] reads after
+    /// Strider patch: writes everything [`Self::forward_kinematics`] reads after
     /// `update_root_type` (the dofs, every link's place in the tree, its joint's
     /// coordinates, rotation, frames and locked axes, its rigid body, that body's type
-    /// and centre of mass) and whether it is bit for bit what the last call read. The
-    /// links' poses, shifts and body Jacobians are a function of these alone.
-    fn record_kinematics_inputs(&mut self, bodies: &RigidBodySet) -> bool {
+    /// and centre of mass) to the workspace, and says whether it is bit for bit what the
+    /// last call read (`kinematics_inputs`). The links' poses, shifts and body Jacobians
+    /// are a function of these alone.
+    fn kinematics_inputs_unchanged(&mut self, bodies: &RigidBodySet) -> bool {
         fn reals<const N: usize>(bits: &mut Vec<u32>, values: [Real; N]) {
             bits.extend_from_slice(&values.map(Real::to_bits));
         }
@@ -1695,9 +1697,6 @@ impl Multibody {
             }
         }
         let same = bits == self.kinematics_inputs;
-        if !same {
-            core::mem::swap(&mut bits, &mut self.kinematics_inputs);
-        }
         self.workspace.kinematics_inputs = bits;
         same
     }
@@ -1849,7 +1848,7 @@ impl Multibody {
         // positions at its end; with nothing changed between, the first reads the bits
         // the second read and computes the bits it left (about 5 % of a walking robot's
         // step).
-        if self.record_kinematics_inputs(bodies) {
+        if self.kinematics_inputs_unchanged(bodies) {
             return;
         }
 
@@ -1889,6 +1888,13 @@ impl Multibody {
          * Compute body jacobians.
          */
         self.update_body_jacobians();
+
+        // Strider patch: what was read, kept once its outputs are all computed (a call
+        // that panicked leaves none that a later call could take as computed).
+        core::mem::swap(
+            &mut self.kinematics_inputs,
+            &mut self.workspace.kinematics_inputs,
+        );
     }
 
     /// Computes the ids of all the links between the root and the link identified by `link_id`.
@@ -3142,50 +3148,84 @@ mod test {
 
     /// Strider patch: forward kinematics that finds what it reads unchanged since its last
     /// call computes nothing (the pipeline calls it at both ends of a step); one that finds
-    /// a joint moved, or the root body moved by the user, computes the bits a multibody
-    /// that never skipped computes.
+    /// anything it reads changed (a joint moved, the root body moved or made fixed, a
+    /// link's centre of mass or joint frame changed, also on a copy) computes the bits a
+    /// multibody that never skipped computes.
     #[cfg(feature = "dim3")]
     #[test]
     fn forward_kinematics_skips_only_what_is_unchanged() {
+        use crate::dynamics::{MassProperties, RigidBodyType};
+        use crate::geometry::ColliderSet;
         let (mut bodies, mut mb) = moving_three_legged_tree();
-        mb.update_rigid_bodies(&mut bodies, true);
         let fresh = |mb: &super::Multibody, bodies: &RigidBodySet| {
             let mut fresh = mb.clone();
             fresh.kinematics_inputs.clear();
             fresh.forward_kinematics(bodies, true);
             kinematics_bits(&fresh)
         };
-        let computed = kinematics_bits(&mb);
-        assert_eq!(fresh(&mb, &bodies), computed);
+        // Checks that a call after `change` recomputes: the bits of one that never
+        // skipped, and not those before the change.
+        let recomputes = |mb: &mut super::Multibody, bodies: &RigidBodySet, what: &str| {
+            let before = kinematics_bits(mb);
+            mb.forward_kinematics(bodies, true);
+            let after = kinematics_bits(mb);
+            assert_ne!(after, before, "{what}: nothing changed");
+            assert_eq!(fresh(mb, bodies), after, "{what}");
+        };
+        // The root somewhere general, as a walking robot's is, and its body where the
+        // step's end leaves it.
+        let root = mb.links[0].rigid_body;
+        bodies[root].set_position(
+            crate::math::Pose::from_parts(
+                Vector::new(0.3, 2.1, -0.7),
+                crate::math::Rotation::from_scaled_axis(Vector::new(0.2, -0.4, 0.1)),
+            ),
+            false,
+        );
+        recomputes(&mut mb, &bodies, "the root placed");
+        mb.update_rigid_bodies(&mut bodies, true);
 
         // Nothing changed (the root's pose read back from its body): nothing recomputed,
         // so a value planted in the outputs stays.
+        let computed = kinematics_bits(&mb);
         let original = mb.links[2].shift02;
-        let planted = original + Vector::new(1.0, 0.0, 0.0);
-        mb.links[2].shift02 = planted;
+        mb.links[2].shift02 = original + Vector::new(1.0, 0.0, 0.0);
         mb.forward_kinematics(&bodies, true);
-        assert_eq!(mb.links[2].shift02, planted);
+        assert_ne!(
+            mb.links[2].shift02, original,
+            "recomputed with nothing changed"
+        );
         mb.links[2].shift02 = original;
         assert_eq!(kinematics_bits(&mb), computed);
 
-        // A joint moved: recomputed, as from scratch.
         let mut displacement = vec![0.0; mb.ndofs()];
         displacement[7] = 0.125;
         mb.apply_displacements(&displacement);
-        mb.forward_kinematics(&bodies, true);
-        let moved = kinematics_bits(&mb);
-        assert_ne!(moved, computed);
-        assert_eq!(fresh(&mb, &bodies), moved);
+        recomputes(&mut mb, &bodies, "a joint moved");
 
-        // The root body moved by the user: read back and recomputed.
-        let root = mb.links[0].rigid_body;
         let mut pose = *bodies[root].position();
         pose.translation.y += 0.25;
         bodies[root].set_position(pose, false);
-        mb.forward_kinematics(&bodies, true);
-        let shifted = kinematics_bits(&mb);
-        assert_ne!(shifted, moved);
-        assert_eq!(fresh(&mb, &bodies), shifted);
+        recomputes(&mut mb, &bodies, "the root body moved");
+
+        let link = mb.links[4].rigid_body;
+        bodies[link].set_additional_mass_properties(
+            MassProperties::new(Vector::new(0.2, 0.1, -0.1), 2.0, Vector::new(0.1, 0.2, 0.3)),
+            false,
+        );
+        bodies[link].recompute_mass_properties_from_colliders(&ColliderSet::new());
+        recomputes(&mut mb, &bodies, "a centre of mass moved");
+
+        let frame = crate::math::Pose::from_translation(Vector::new(0.05, 0.0, 0.1));
+        mb.link_mut(3).unwrap().joint.data.set_local_frame2(frame);
+        recomputes(&mut mb, &bodies, "a joint frame changed");
+
+        let mut copy = mb.clone();
+        copy.apply_displacements(&displacement);
+        recomputes(&mut copy, &bodies, "a copy's joint moved");
+
+        bodies[root].set_body_type(RigidBodyType::Fixed, false);
+        recomputes(&mut mb, &bodies, "the root made fixed");
     }
 
     /// Strider patch: the sparse mass-matrix assembly equals the upstream dense one on a

@@ -11,7 +11,9 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: each link's nonzero body-Jacobian column ranges `(start, len)`.
     pub col_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
-    /// apart: it runs before `update_mass_matrix`, and not always with it).
+    /// apart: it runs before `update_mass_matrix`, and not always with it). Scratch: valid
+    /// only within `update_body_jacobians`, which computes them first (forward kinematics
+    /// may skip it, and a copy of the workspace has none).
     pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: `M J` for one link and each of the two mass matrices, reused across
     /// links and steps.
@@ -25,7 +27,7 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: one link's Coriolis terms melded with its mass, in the same layout.
     pub coriolis_dt: Vec<Real>,
     /// Strider patch: what forward kinematics reads, written before it is compared with
-    /// the last call's (`Multibody::record_kinematics_inputs`).
+    /// the last call's (`Multibody::kinematics_inputs_unchanged`).
     pub kinematics_inputs: Vec<u32>,
 }
 
