@@ -1846,8 +1846,8 @@ impl Multibody {
         // Strider patch: the pipeline runs forward kinematics at the start of every step
         // (for changes the user made between steps) and again after integrating the
         // positions at its end; with nothing changed between, the first reads the bits
-        // the second read and computes the bits it left (about 5 % of a walking robot's
-        // step).
+        // the second read and computes the bits it left (half of forward kinematics' 10 %
+        // of a late search's step; skipping it, record included, saves about 3.5 %).
         if self.kinematics_inputs_unchanged(bodies) {
             return;
         }
