@@ -192,6 +192,44 @@ fn a_coordinator_killed_and_restarted_resumes_and_its_workers_come_back() {
 }
 
 #[test]
+fn a_coordinator_stopped_a_while_says_so_and_its_workers_stay() {
+    let expected = reference();
+    let dir = temp_dir("service-stopped");
+    let db = dir.join("stopped.db");
+    let (mut coordinator, url) = serve(&dir, &db, 0, "60");
+    let mut w = worker(&dir, &url, "patient");
+    coordinator.wait_for_line("at generation 2", |l| l.contains("generation 2/20"), FINISH);
+    // Stopped (an admin's SIGSTOP, a Slurm job suspended) for longer than its clock takes
+    // for a stop, shorter than the workers' keepalive allows (20 s).
+    let stop = Duration::from_secs(13);
+    coordinator.signal(libc::SIGSTOP);
+    std::thread::sleep(stop);
+    coordinator.signal(libc::SIGCONT);
+    let said = coordinator.wait_for_line(
+        "the stop noticed",
+        |l| l.contains("this process was stopped for"),
+        START,
+    );
+    // Its rates and time left leave the stop out: it measured the whole of it.
+    let seconds: f64 = said
+        .split("stopped for ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no duration in {said:?}"));
+    assert!(seconds >= stop.as_secs_f64() - 1.0, "{said}");
+    finish(&mut coordinator);
+    assert!(w.wait_exit(START).success(), "{}", w.log());
+    // The worker's session outlived the stop: one session, left when the run finished.
+    assert_eq!(
+        strider_tests::sqlite(&db, "SELECT COUNT(*), MAX(left_because) FROM workers").trim(),
+        "1|the experiment is finished"
+    );
+    assert_same_library(&export(&db), expected);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_worker_told_to_give_up_waits_while_its_coordinator_serves_and_exits_69_once_it_is_gone() {
     let dir = temp_dir("service-give-up");
     let db = dir.join("give-up.db");

@@ -117,7 +117,7 @@ pub fn progress(shared: &Shared) -> v1::Progress {
             .throughput
             .lock()
             .expect("no panic while counting")
-            .rate(shared.uptime()),
+            .rate(shared.running_seconds()),
         fraction_done,
         eta_seconds: shared.eta(fraction_done),
     }

@@ -4,6 +4,7 @@
 
 pub mod auth;
 pub mod client_api;
+pub mod clock;
 pub mod incoming;
 /// `run`: needs the simulator (the `simulator` feature).
 #[cfg(feature = "simulator")]
@@ -122,6 +123,8 @@ pub struct Shared {
     next_worker: AtomicU64,
     throughput: Mutex<Throughput>,
     started: Instant,
+    /// The time run, stops left out: rates and the time left are measured on it.
+    clock: Mutex<clock::RunningClock>,
     /// The recent pace, for the time left.
     pace: Mutex<pace::Pace>,
     /// The experiment as workers get it (without its initial designs).
@@ -173,6 +176,23 @@ impl Shared {
         self.started.elapsed().as_secs_f64()
     }
 
+    /// Seconds the service has run: [`Shared::uptime`] less the time its process was
+    /// stopped ([`clock::RunningClock`]). Read at least every second by the service itself.
+    pub fn running_seconds(&self) -> f64 {
+        let (seconds, stop) = self
+            .clock
+            .lock()
+            .expect("no panic while reading the clock")
+            .read(Instant::now());
+        if let Some(stop) = stop {
+            tracing::warn!(
+                "this process was stopped for {:.1} s (SIGSTOP, a suspended job); rates and the time left leave it out",
+                stop.as_secs_f64()
+            );
+        }
+        seconds
+    }
+
     /// Candidates the experiment evaluates, every run's initial population and
     /// generations (ES candidates count once).
     pub fn candidates_budget(&self) -> u64 {
@@ -190,12 +210,13 @@ impl Shared {
     }
 
     /// Seconds left at the recent pace ([`pace::Pace`]: the last two minutes, or the last
-    /// tenth of this process's time when longer), once this process has done some of the
-    /// work: an estimate.
+    /// tenth of this process's time when longer, its stops left out), once this process
+    /// has done some of the work: an estimate.
     pub fn eta(&self, fraction: f64) -> Option<f64> {
+        let now = self.running_seconds();
         self.pace
             .lock()
             .expect("no panic while estimating")
-            .observe(self.uptime(), fraction)
+            .observe(now, fraction)
     }
 }

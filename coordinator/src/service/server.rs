@@ -257,6 +257,7 @@ async fn start_scheduler(
         next_worker: AtomicU64::new(next_worker.0),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
+        clock: Mutex::new(super::clock::RunningClock::new(Instant::now())),
         pace: Mutex::new(Default::default()),
         // What a worker needs to judge a candidate: not the initial designs (genomes
         // arrive with each candidate), which could pass a message's size limit.
@@ -430,7 +431,8 @@ async fn stop_leasing(shared: Arc<Shared>, after: Duration, done: oneshot::Sende
     let _ = done.send(());
 }
 
-/// Lease expiry and the progress line.
+/// Lease expiry (and the running clock's reading every tick, which is how it sees the
+/// process stopped) and the progress line.
 fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::JoinHandle<()>> {
     let mut tasks = Vec::new();
     let tick = (opts.lease / 4).clamp(Duration::from_millis(50), Duration::from_secs(1));
@@ -439,6 +441,7 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
         let mut every = tokio::time::interval(tick);
         loop {
             every.tick().await;
+            s.running_seconds();
             let expired = s.with(true, |sch| sch.expire(Instant::now()));
             if expired > 0 {
                 tracing::warn!(

@@ -369,7 +369,7 @@ impl Session {
         })?;
         self.held.remove(&key);
         self.results += 1;
-        let second = self.shared.uptime() as u64;
+        let second = self.shared.running_seconds() as u64;
         self.shared
             .throughput
             .lock()
