@@ -174,22 +174,57 @@ pub fn closed_pipe(e: &(dyn std::error::Error + 'static)) -> bool {
     false
 }
 
-/// Completes on SIGTERM or Ctrl-C (SIGINT) and says which: 15 or 2.
-pub async fn stop_signal() -> i32 {
+/// SIGTERM and Ctrl-C (SIGINT), caught from the moment [`StopSignals::catch`] returns:
+/// made before a command opens its database, so that a signal while it opens (a resume
+/// reads its whole library first) stops it cleanly once open, rather than killing it by
+/// the signal's default action (a Slurm job cancelled as it starts reported a failure).
+pub struct StopSignals {
     #[cfg(unix)]
-    {
-        use tokio::signal::unix::{signal, SignalKind};
-        let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-        tokio::select! {
-            _ = term.recv() => 15,
-            _ = tokio::signal::ctrl_c() => 2,
+    term: tokio::signal::unix::Signal,
+    #[cfg(unix)]
+    interrupt: tokio::signal::unix::Signal,
+}
+
+impl StopSignals {
+    /// Catches both signals from now on (within a tokio runtime).
+    pub fn catch() -> std::io::Result<Self> {
+        #[cfg(unix)]
+        {
+            use tokio::signal::unix::{signal, SignalKind};
+            Ok(Self {
+                term: signal(SignalKind::terminate())?,
+                interrupt: signal(SignalKind::interrupt())?,
+            })
+        }
+        #[cfg(not(unix))]
+        Ok(Self {})
+    }
+
+    /// Completes on the first signal caught since [`StopSignals::catch`] (at once if one
+    /// came already) and says which: 15 or 2.
+    pub async fn recv(&mut self) -> i32 {
+        #[cfg(unix)]
+        {
+            tokio::select! {
+                _ = self.term.recv() => 15,
+                _ = self.interrupt.recv() => 2,
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = tokio::signal::ctrl_c().await;
+            2
         }
     }
-    #[cfg(not(unix))]
-    {
-        let _ = tokio::signal::ctrl_c().await;
-        2
-    }
+}
+
+/// Completes on SIGTERM or Ctrl-C (SIGINT) and says which: 15 or 2. Catches them from its
+/// first poll only: a command with work before that uses [`StopSignals`].
+pub async fn stop_signal() -> i32 {
+    StopSignals::catch()
+        .expect("SIGTERM and SIGINT handlers")
+        .recv()
+        .await
 }
 
 /// CPU time the calling thread has used, s: what a computation costs whatever else the

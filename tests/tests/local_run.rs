@@ -593,6 +593,57 @@ fn ctrl_c_and_sigterm_stop_run_honestly_and_the_next_run_finishes_the_same_libra
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Whether process `pid` catches `signal` (its handler installed): /proc's `SigCgt` mask.
+fn catches(pid: u32, signal: i32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigCgt:"))
+        .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
+        .is_some_and(|mask| mask & (1 << (signal - 1)) != 0)
+}
+
+#[test]
+fn a_sigterm_while_run_is_still_opening_stops_it_cleanly_once_open() {
+    let dir = temp_dir("local-early-stop");
+    let db = dir.join("early.db");
+    // The experiment comes through a named pipe: `run` waits reading it, before it opens
+    // its database, for as long as the test likes.
+    let fifo = dir.join("experiment.toml");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo(3) on a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo");
+    let mut cmd = Command::new(binary("strider-coordinator"));
+    cmd.arg("run")
+        .arg(&fifo)
+        .arg("--db")
+        .arg(&db)
+        .args(["--workers", "1"]);
+    let mut p = strider_tests::Process::spawn("run", cmd);
+    // Polled, bounded: the handler is installed before the experiment is read.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while !catches(p.pid(), libc::SIGTERM) {
+        assert!(p.exited().is_none(), "it exited:\n{}", p.log());
+        assert!(
+            std::time::Instant::now() < deadline,
+            "SIGTERM not caught while reading the experiment:\n{}",
+            p.log()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    p.signal(libc::SIGTERM);
+    // Only now can it read its experiment and open the database.
+    std::fs::write(&fifo, std::fs::read(workspace_root().join(TINY)).unwrap()).unwrap();
+    let got = p.wait_exit(std::time::Duration::from_secs(60));
+    assert_eq!(got.code(), Some(143), "{}", p.log());
+    assert!(p.log().contains("stopped before the end"), "{}", p.log());
+    assert_eq!(integrity(&db), "ok");
+    // And the next run goes on from that database.
+    let said = run_to_end(&db, "1");
+    assert!(said.contains("finished"), "{said}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn export_analyse_and_verify_read_a_database_on_a_read_only_mount() {
     let dir = temp_dir("read-only-mount");

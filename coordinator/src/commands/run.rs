@@ -28,7 +28,7 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
     use crate::service::local::run_local;
     use crate::service::server::Ended;
     use anyhow::Context;
-    use strider_process::{default_threads, stop_signal};
+    use strider_process::{default_threads, StopSignals};
 
     // The progress line is this command's account; the embedded service's INFO lines
     // (a worker connected, serving on a port) only interest someone debugging it.
@@ -42,13 +42,15 @@ pub fn execute(args: RunArgs) -> anyhow::Result<Exit> {
         .build()
         .context("starting the async runtime")?;
     runtime.block_on(async {
+        // Caught before the database is opened: a signal meanwhile stops the run once open.
+        let mut signals = StopSignals::catch().context("catching SIGTERM and SIGINT")?;
         let path = &args.db;
         let (db, experiment) =
             super::open::open_or_create(args.experiment.as_deref(), path, true).await?;
         let threads = args.threads.unwrap_or_else(default_threads);
         let (signal_tx, signal_rx) = tokio::sync::oneshot::channel();
         let stop = async move {
-            let signal = stop_signal().await;
+            let signal = signals.recv().await;
             // Said at once: the trials in flight get a few seconds to finish and be kept.
             strider_process::note!(
                 "stopping: the trials in flight get up to 5 s to finish and be committed; any cut short are simulated again when the run goes on"

@@ -6,7 +6,7 @@ use crate::service::server::{serve, Backup, Ended, ServeOptions};
 use anyhow::Context;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use strider_process::{stop_signal, UsageError};
+use strider_process::{StopSignals, UsageError};
 use strider_proto::secret::Secret;
 
 /// Arguments of `serve`.
@@ -68,13 +68,16 @@ pub fn execute(args: ServeArgs) -> anyhow::Result<Exit> {
     let secret = Secret::load(args.token_file.as_deref())?;
     let opts = options(&args)?;
     let ended = super::runtime()?.block_on(async {
+        // Caught before the database is opened: a signal meanwhile stops the service once
+        // open (everything committed, exit 0), not the signal's default action.
+        let mut signals = StopSignals::catch().context("catching SIGTERM and SIGINT")?;
         let (db, experiment) =
             super::open::open_or_create(args.experiment.as_deref(), &args.db, false).await?;
         let listener = tokio::net::TcpListener::bind(args.listen)
             .await
             .with_context(|| format!("listening on {}", args.listen))?;
-        let stop = async {
-            stop_signal().await;
+        let stop = async move {
+            signals.recv().await;
             tracing::info!("asked to stop: committing and shutting down");
         };
         serve(db, experiment, listener, secret, opts, stop).await

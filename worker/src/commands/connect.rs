@@ -4,7 +4,7 @@ use crate::client::{work, ConnectOptions, CoordinatorAddress, Evaluator};
 use anyhow::Context;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
-use strider_process::{default_threads, host_name, stop_signal, UsageError};
+use strider_process::{default_threads, host_name, StopSignals, UsageError};
 use strider_proto::secret::{Secret, SecretError};
 
 /// Working for a coordinator.
@@ -105,10 +105,15 @@ pub fn execute(args: ConnectArgs) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("starting the async runtime")?;
+    // Caught now, not when the task below first runs (after the simulation threads start).
+    let mut signals = {
+        let _in = runtime.enter();
+        StopSignals::catch().context("catching SIGTERM and SIGINT")?
+    };
     runtime.block_on(async {
         let (stop, stopped) = tokio::sync::watch::channel(false);
         tokio::spawn(async move {
-            stop_signal().await;
+            signals.recv().await;
             tracing::info!("asked to stop");
             let _ = stop.send(true);
         });
