@@ -100,6 +100,7 @@ fn lease_and_drop(rt: &tokio::runtime::Runtime, url: &str) -> usize {
                 worker_name: "lease-and-drop".into(),
                 slots: 64,
                 build: strider_common::build_id(),
+                replaces: 0,
             })),
         })
         .await
@@ -257,6 +258,7 @@ fn nan_fitness(rt: &tokio::runtime::Runtime, url: &str) -> &'static str {
                 worker_name: "nan-sender".into(),
                 slots: 1,
                 build: strider_common::build_id(),
+                replaces: 0,
             })),
         })
         .await

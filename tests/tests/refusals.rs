@@ -38,6 +38,7 @@ fn hello(version: u32) -> WorkerMessage {
             worker_name: "raw test client".into(),
             slots: 4,
             build: strider_common::build_id(),
+            replaces: 0,
         })),
     }
 }
@@ -56,6 +57,7 @@ async fn refused_as_another_build(channel: &Channel, name: &str, build: &str) {
             worker_name: name.into(),
             slots: 4,
             build: build.into(),
+            replaces: 0,
         })),
     };
     let s = match open(channel, hello).await {
@@ -588,5 +590,78 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
     let log = coordinator.log();
     assert_eq!(log.matches("worker connected").count(), 1, "{log}");
     drop(worker);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A worker that connects again names its last session (`Hello.replaces`), which ends at
+/// once though its connection is alive: the worker counted once, the old session's leases
+/// free. (After a network cut the old connection can look alive for half a minute.)
+#[test]
+fn a_worker_that_connects_again_ends_its_last_session_at_once() {
+    let dir = temp_dir("reconnected");
+    let secret = dir.join("secret");
+    std::fs::write(&secret, SECRET).unwrap();
+    let db = dir.join("reconnected.db");
+    let (mut coordinator, url) = start_serving(serve_command(FIXTURE, &db, "127.0.0.1:0", &secret));
+    tokio::runtime::Runtime::new().unwrap().block_on(async {
+        let channel = Channel::from_shared(url.clone())
+            .unwrap()
+            .connect()
+            .await
+            .unwrap();
+        let mut first = open(&channel, hello(1)).await.unwrap();
+        let token = match first.rx.message().await.unwrap().unwrap().kind {
+            Some(coordinator_message::Kind::Welcome(w)) => w.session,
+            other => panic!("expected Welcome, got {other:?}"),
+        };
+        assert_ne!(token, 0);
+        let again = WorkerMessage {
+            kind: Some(worker_message::Kind::Hello(v1::Hello {
+                replaces: token,
+                ..match hello(1).kind {
+                    Some(worker_message::Kind::Hello(h)) => h,
+                    _ => unreachable!(),
+                }
+            })),
+        };
+        let mut second = open(&channel, again).await.unwrap();
+        assert!(matches!(
+            second.rx.message().await.unwrap().unwrap().kind,
+            Some(coordinator_message::Kind::Welcome(_))
+        ));
+        // The first stream ends (its assignments read first), well before any keepalive
+        // or lease would end it (20 s, 60 s).
+        let ended = tokio::time::timeout(Duration::from_secs(10), async {
+            loop {
+                match first.rx.message().await {
+                    Ok(Some(_)) => continue,
+                    Ok(None) => break None,
+                    Err(status) => break Some(status),
+                }
+            }
+        })
+        .await
+        .expect("the first session did not end");
+        assert!(ended.is_none(), "{ended:?}");
+        let mut client = ClientServiceClient::new(channel.clone());
+        let progress = client
+            .get_progress(authorised(v1::ProgressRequest {
+                protocol_version: 1,
+            }))
+            .await
+            .unwrap()
+            .into_inner();
+        assert_eq!(progress.workers_connected, 1);
+        drop(first.tx);
+        drop(second);
+    });
+    coordinator.signal(libc::SIGTERM);
+    assert!(coordinator.wait_exit(Duration::from_secs(60)).success());
+    let left = strider_tests::sqlite(&db, "SELECT left_because FROM workers ORDER BY id LIMIT 1");
+    assert!(
+        left.starts_with("the worker connected again (worker "),
+        "{left}\n{}",
+        coordinator.log()
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

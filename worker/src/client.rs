@@ -179,6 +179,9 @@ pub async fn work(
     let mut backoff = first_backoff;
     // When a coordinator last had this worker connected (or it started).
     let mut last_welcome = tokio::time::Instant::now();
+    // The last session's token (its Welcome's): named when connecting again, so the
+    // coordinator ends that session at once rather than when its connection times out.
+    let mut last_session = 0;
     loop {
         if *shutdown.borrow() {
             return Ok(());
@@ -193,6 +196,7 @@ pub async fn work(
                         authorize.clone(),
                         (&cores, &pool),
                         &mut shutdown,
+                        &mut last_session,
                     )
                     .await?
                 }
@@ -302,6 +306,7 @@ async fn session(
     authorize: impl FnMut(Request<()>) -> Result<Request<()>, Status> + Clone,
     (cores, pool): (&Arc<Semaphore>, &SimPool<v1::CandidateId>),
     shutdown: &mut watch::Receiver<bool>,
+    last_session: &mut u64,
 ) -> Result<End, WorkerError> {
     let channel = match endpoint.connect().await {
         Ok(c) => c,
@@ -315,6 +320,7 @@ async fn session(
         worker_name: opts.name.clone(),
         slots: slots as u32,
         build: opts.build.clone(),
+        replaces: *last_session,
     })))
     .await
     .expect("the channel is open");
@@ -345,6 +351,7 @@ async fn session(
                 WorkerError::Refused(format!("the coordinator's experiment does not load: {e}"))
             })?;
             tracing::info!(experiment = %w.experiment, lease_seconds = w.lease_seconds, "connected to {url}");
+            *last_session = w.session;
             (EvalContext::of(&e), w.lease_seconds)
         }
         Ok(Some(_)) => {

@@ -12,6 +12,7 @@ pub mod local;
 pub mod metrics;
 pub mod pace;
 pub mod server;
+pub mod sessions;
 pub mod worker_api;
 pub mod writer;
 
@@ -121,6 +122,8 @@ pub struct Shared {
     /// Their slots (candidates each keeps in hand), summed: their shares of a scarce step.
     slots: AtomicUsize,
     next_worker: AtomicU64,
+    /// Live worker sessions, so a worker that connects again ends its last one.
+    sessions: sessions::Sessions,
     throughput: Mutex<Throughput>,
     started: Instant,
     /// The time run, stops left out: rates and the time left are measured on it.

@@ -255,6 +255,7 @@ async fn start_scheduler(
         workers: AtomicU32::new(0),
         slots: AtomicUsize::new(0),
         next_worker: AtomicU64::new(next_worker.0),
+        sessions: Default::default(),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
         clock: Mutex::new(super::clock::RunningClock::new(Instant::now())),

@@ -91,6 +91,7 @@ impl WorkerService for WorkerApi {
             experiment: shared.with(false, |s| s.experiment().name.clone()),
             settings_toml: shared.experiment_toml.clone(),
             lease_seconds: lease_seconds.ceil() as u32,
+            session: shared.sessions.token(id),
         })))
         .await
         .map_err(|_| Status::cancelled("the worker went away"))?;
@@ -100,6 +101,12 @@ impl WorkerService for WorkerApi {
             build: hello.build.clone(),
             slots: hello.slots,
         }]);
+        let token = shared.sessions.token(id);
+        let replaced = shared.sessions.open(token);
+        // Its last session, if still alive here, ends now: the worker gave it up.
+        if shared.sessions.replace(hello.replaces, id) {
+            tracing::info!(worker = id.0, name = %hello.worker_name, "worker connected again: its last session ends");
+        }
         shared.workers.fetch_add(1, Ordering::Relaxed);
         shared
             .slots
@@ -110,6 +117,8 @@ impl WorkerService for WorkerApi {
             id,
             name: hello.worker_name.clone(),
             slots: hello.slots as usize,
+            token,
+            replaced,
             held: HashSet::new(),
             draining: false,
             results: 0,
@@ -126,6 +135,9 @@ struct Session {
     /// The name the worker gave (`--name`, or host and pid), for the logs.
     name: String,
     slots: usize,
+    /// Its token ([`super::sessions::Sessions`]), and word of the session that replaced it.
+    token: u64,
+    replaced: tokio::sync::oneshot::Receiver<WorkerId>,
     /// Candidates leased to this worker and not answered by it. A lease that expired
     /// stays here: the worker may still be simulating it (it stalled, then went on), and
     /// its late result is taken or, if another worker answered first, ignored.
@@ -222,6 +234,9 @@ impl Session {
                 },
                 _ = &mut work => {}
                 _ = finished.changed() => {}
+                Ok(by) = &mut self.replaced => break format!(
+                    "the worker connected again (worker {by}) and gave this session up"
+                ),
                 // The response stream is gone with the connection: the server's keepalive
                 // gave up (no answer to pings for 20 s: a stopped or hung process, a
                 // cut network) or the connection was reset (the process killed).
@@ -229,6 +244,7 @@ impl Session {
             }
         };
         let why = reason.clone();
+        self.shared.sessions.close(self.token);
         // Before the others are woken to lease what it held: their shares without its slots.
         self.shared.workers.fetch_sub(1, Ordering::Relaxed);
         self.stop_leasing();
