@@ -218,15 +218,6 @@ impl StopSignals {
     }
 }
 
-/// Completes on SIGTERM or Ctrl-C (SIGINT) and says which: 15 or 2. Catches them from its
-/// first poll only: a command with work before that uses [`StopSignals`].
-pub async fn stop_signal() -> i32 {
-    StopSignals::catch()
-        .expect("SIGTERM and SIGINT handlers")
-        .recv()
-        .await
-}
-
 /// CPU time the calling thread has used, s: what a computation costs whatever else the
 /// machine runs (wall time stretches with load; `check` read 2,578 h loaded and 702 h
 /// quiet). None where the platform has no thread clock.

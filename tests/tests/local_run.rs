@@ -632,8 +632,35 @@ fn a_sigterm_while_run_is_still_opening_stops_it_cleanly_once_open() {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     p.signal(libc::SIGTERM);
-    // Only now can it read its experiment and open the database.
-    std::fs::write(&fifo, std::fs::read(workspace_root().join(TINY)).unwrap()).unwrap();
+    // Only now can it read its experiment and open the database. The pipe is opened
+    // without blocking (refused while no reader has it open), so a `run` that exited
+    // instead of reading fails the test rather than hanging it.
+    let writer = loop {
+        use std::os::unix::fs::OpenOptionsExt;
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(&fifo)
+        {
+            Ok(f) => break f,
+            Err(e) if e.raw_os_error() == Some(libc::ENXIO) => {
+                assert!(p.exited().is_none(), "it exited:\n{}", p.log());
+                assert!(
+                    std::time::Instant::now() < deadline,
+                    "the pipe has no reader"
+                );
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            Err(e) => panic!("opening the pipe: {e}"),
+        }
+    };
+    // The experiment is far smaller than a pipe's buffer: written whole at once.
+    std::io::Write::write_all(
+        &mut &writer,
+        &std::fs::read(workspace_root().join(TINY)).unwrap(),
+    )
+    .unwrap();
+    drop(writer);
     let got = p.wait_exit(std::time::Duration::from_secs(60));
     assert_eq!(got.code(), Some(143), "{}", p.log());
     assert!(p.log().contains("stopped before the end"), "{}", p.log());

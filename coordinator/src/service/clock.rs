@@ -4,8 +4,8 @@
 //! lines read hours left (their window would span the stop, with nothing done in it).
 //!
 //! A stop is seen as a gap between two readings longer than [`RunningClock::STOPPED_AFTER`]:
-//! the service reads the clock at least every second (its lease-expiry tick), so a longer
-//! gap means the process did not run. A system suspend needs nothing: the monotonic clock
+//! the service reads the clock every second from a thread of its own, so a longer gap means
+//! the process did not run. A system suspend needs nothing: the monotonic clock
 //! does not advance through it.
 
 use std::time::{Duration, Instant};

@@ -179,8 +179,27 @@ impl Shared {
         self.started.elapsed().as_secs_f64()
     }
 
+    /// Reads the running clock every second from a thread of its own (not a task: a
+    /// runtime busy for 10 s, say with a slow copy to shared storage, would read as a
+    /// stop), so that only a stopped process misses readings. Ends with the service.
+    pub fn read_the_clock_every_second(shared: &Arc<Self>) {
+        let shared = Arc::downgrade(shared);
+        let spawned = std::thread::Builder::new()
+            .name("running clock".into())
+            .spawn(move || loop {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                match shared.upgrade() {
+                    Some(s) => s.running_seconds(),
+                    None => return,
+                };
+            });
+        if let Err(e) = spawned {
+            tracing::warn!("no thread to read the running clock ({e}): a stop of the process will count as running time");
+        }
+    }
+
     /// Seconds the service has run: [`Shared::uptime`] less the time its process was
-    /// stopped ([`clock::RunningClock`]). Read at least every second by the service itself.
+    /// stopped ([`clock::RunningClock`]). Read every second by a thread of its own.
     pub fn running_seconds(&self) -> f64 {
         let (seconds, stop) = self
             .clock

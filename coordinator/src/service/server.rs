@@ -270,6 +270,7 @@ async fn start_scheduler(
     });
     // Store what opening the steps wrote (draws settled without a trial, new generations).
     shared.with(true, |_| ());
+    Shared::read_the_clock_every_second(&shared);
     // Where this process began, for its estimate of the time left.
     let _ = shared.eta(shared.fraction_done());
 
@@ -432,8 +433,7 @@ async fn stop_leasing(shared: Arc<Shared>, after: Duration, done: oneshot::Sende
     let _ = done.send(());
 }
 
-/// Lease expiry (and the running clock's reading every tick, which is how it sees the
-/// process stopped) and the progress line.
+/// Lease expiry and the progress line.
 fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::JoinHandle<()>> {
     let mut tasks = Vec::new();
     let tick = (opts.lease / 4).clamp(Duration::from_millis(50), Duration::from_secs(1));
@@ -442,7 +442,6 @@ fn background(shared: Arc<Shared>, opts: &ServeOptions) -> Vec<tokio::task::Join
         let mut every = tokio::time::interval(tick);
         loop {
             every.tick().await;
-            s.running_seconds();
             let expired = s.with(true, |sch| sch.expire(Instant::now()));
             if expired > 0 {
                 tracing::warn!(

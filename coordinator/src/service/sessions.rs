@@ -6,7 +6,7 @@
 
 use std::collections::hash_map::RandomState;
 use std::collections::HashMap;
-use std::hash::{BuildHasher, Hasher};
+use std::hash::BuildHasher;
 use std::sync::Mutex;
 use strider_common::WorkerId;
 use tokio::sync::oneshot;
@@ -15,17 +15,16 @@ use tokio::sync::oneshot;
 pub struct Sessions {
     /// This process's own: a token from another coordinator (restarted, or another
     /// experiment behind the same address file) names no session here.
-    nonce: u64,
+    keys: RandomState,
     live: Mutex<HashMap<u64, oneshot::Sender<WorkerId>>>,
 }
 
 impl Default for Sessions {
     fn default() -> Self {
-        // std's hasher keys are random per process: no dependency for a nonce.
-        let mut h = RandomState::new().build_hasher();
-        h.write_u64(std::process::id().into());
         Self {
-            nonce: h.finish(),
+            // std's hasher: keyed at random per process, and not invertible (no token
+            // tells another session's), with no dependency.
+            keys: RandomState::new(),
             live: Mutex::new(HashMap::new()),
         }
     }
@@ -34,13 +33,7 @@ impl Default for Sessions {
 impl Sessions {
     /// The token of worker session `id` (never 0, which means none on the wire).
     pub fn token(&self, id: WorkerId) -> u64 {
-        // splitmix64 of nonce + id: distinct ids give distinct tokens.
-        let mut z = self
-            .nonce
-            .wrapping_add(id.0.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        (z ^ (z >> 31)).max(1)
+        self.keys.hash_one(id.0).max(1)
     }
 
     /// Registers a live session; the receiver completes with the id of the session that

@@ -153,6 +153,9 @@ impl Session {
     async fn run(mut self, mut inbound: Streaming<WorkerMessage>) {
         let shared = self.shared.clone();
         let mut finished = shared.finished.subscribe();
+        // Until the session that replaced it says so (never, unless the worker connects
+        // again), or its word is lost.
+        let mut may_be_replaced = true;
         let reason = loop {
             if *finished.borrow_and_update() {
                 let _ = self
@@ -175,6 +178,9 @@ impl Session {
                 break reason;
             }
             tokio::select! {
+                // In this order: the results the worker sent before it connected again
+                // are taken before the word that it did ends the session.
+                biased;
                 // The writer is behind: take no more results until it catches up.
                 _ = &mut drained, if backlogged => {}
                 m = inbound.message(), if !backlogged => match m {
@@ -234,13 +240,17 @@ impl Session {
                 },
                 _ = &mut work => {}
                 _ = finished.changed() => {}
-                Ok(by) = &mut self.replaced => break format!(
-                    "the worker connected again (worker {by}) and gave this session up"
-                ),
                 // The response stream is gone with the connection: the server's keepalive
                 // gave up (no answer to pings for 20 s: a stopped or hung process, a
                 // cut network) or the connection was reset (the process killed).
                 _ = self.tx.closed() => break CONNECTION_LOST.into(),
+                // Last, and not while the writer is behind (its results wait unread).
+                by = &mut self.replaced, if may_be_replaced && !backlogged => match by {
+                    Ok(by) => break format!(
+                        "the worker connected again (worker {by}) and gave this session up"
+                    ),
+                    Err(_) => may_be_replaced = false,
+                },
             }
         };
         let why = reason.clone();
