@@ -3,7 +3,7 @@
 //! fitness, a message over the size limit, a candidate nobody leased them, another run's
 //! candidate. A raw client speaks the protocol here, as a broken or hostile worker would.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 use strider_common::rng::CandidateSeed;
@@ -32,15 +32,40 @@ fn authorised<T>(message: T) -> Request<T> {
 }
 
 fn hello(version: u32) -> WorkerMessage {
+    hello_replacing(version, 0)
+}
+
+/// A Hello naming the session it replaces (0: none).
+fn hello_replacing(version: u32, replaces: u64) -> WorkerMessage {
     WorkerMessage {
         kind: Some(worker_message::Kind::Hello(v1::Hello {
             protocol_version: version,
             worker_name: "raw test client".into(),
             slots: 4,
             build: strider_common::build_id(),
-            replaces: 0,
+            replaces,
         })),
     }
+}
+
+/// `serve` on the fixture in a new directory `name` with the test's secret: the
+/// directory, the database, the coordinator and its URL.
+fn serving(name: &str) -> (PathBuf, PathBuf, Process, String) {
+    let dir = temp_dir(name);
+    let secret = dir.join("secret");
+    std::fs::write(&secret, SECRET).unwrap();
+    let db = dir.join(format!("{name}.db"));
+    let (coordinator, url) = start_serving(serve_command(FIXTURE, &db, "127.0.0.1:0", &secret));
+    (dir, db, coordinator, url)
+}
+
+/// A connected channel to `url`.
+async fn channel(url: &str) -> Channel {
+    Channel::from_shared(url.to_string())
+        .unwrap()
+        .connect()
+        .await
+        .unwrap()
 }
 
 /// A worker stream: what to send, what came back.
@@ -180,18 +205,9 @@ fn results_in(db: &Path) -> (i64, i64) {
 
 #[test]
 fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
-    let dir = temp_dir("refusals");
-    let secret = dir.join("secret");
-    std::fs::write(&secret, SECRET).unwrap();
-    let db = dir.join("refusals.db");
-    let (coordinator, url) = start_serving(serve_command(FIXTURE, &db, "127.0.0.1:0", &secret));
-
+    let (dir, db, coordinator, url) = serving("refusals");
     tokio::runtime::Runtime::new().unwrap().block_on(async {
-        let channel = Channel::from_shared(url.clone())
-            .unwrap()
-            .connect()
-            .await
-            .unwrap();
+        let channel = channel(&url).await;
 
         // Health answers without the secret (probes and load balancers have none).
         let mut health = tonic_health::pb::health_client::HealthClient::new(channel.clone());
@@ -598,32 +614,16 @@ fn connections_that_never_speak_are_closed_and_starve_nothing() {
 /// free. (After a network cut the old connection can look alive for half a minute.)
 #[test]
 fn a_worker_that_connects_again_ends_its_last_session_at_once() {
-    let dir = temp_dir("reconnected");
-    let secret = dir.join("secret");
-    std::fs::write(&secret, SECRET).unwrap();
-    let db = dir.join("reconnected.db");
-    let (mut coordinator, url) = start_serving(serve_command(FIXTURE, &db, "127.0.0.1:0", &secret));
+    let (dir, db, mut coordinator, url) = serving("reconnected");
     tokio::runtime::Runtime::new().unwrap().block_on(async {
-        let channel = Channel::from_shared(url.clone())
-            .unwrap()
-            .connect()
-            .await
-            .unwrap();
+        let channel = channel(&url).await;
         let mut first = open(&channel, hello(1)).await.unwrap();
         let token = match first.rx.message().await.unwrap().unwrap().kind {
             Some(coordinator_message::Kind::Welcome(w)) => w.session,
             other => panic!("expected Welcome, got {other:?}"),
         };
         assert_ne!(token, 0);
-        let again = WorkerMessage {
-            kind: Some(worker_message::Kind::Hello(v1::Hello {
-                replaces: token,
-                ..match hello(1).kind {
-                    Some(worker_message::Kind::Hello(h)) => h,
-                    _ => unreachable!(),
-                }
-            })),
-        };
+        let again = hello_replacing(1, token);
         let mut second = open(&channel, again).await.unwrap();
         assert!(matches!(
             second.rx.message().await.unwrap().unwrap().kind,

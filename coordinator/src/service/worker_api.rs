@@ -85,13 +85,14 @@ impl WorkerService for WorkerApi {
         let shared = self.shared.clone();
         let id = WorkerId(shared.next_worker.fetch_add(1, Ordering::Relaxed));
         let lease_seconds = shared.with(false, |s| s.lease_duration().as_secs_f64());
+        let token = shared.sessions.token(id);
         let (tx, rx) = mpsc::channel(hello.slots as usize + 16);
         tx.send(message(coordinator_message::Kind::Welcome(v1::Welcome {
             protocol_version: PROTOCOL_VERSION,
             experiment: shared.with(false, |s| s.experiment().name.clone()),
             settings_toml: shared.experiment_toml.clone(),
             lease_seconds: lease_seconds.ceil() as u32,
-            session: shared.sessions.token(id),
+            session: token,
         })))
         .await
         .map_err(|_| Status::cancelled("the worker went away"))?;
@@ -101,7 +102,6 @@ impl WorkerService for WorkerApi {
             build: hello.build.clone(),
             slots: hello.slots,
         }]);
-        let token = shared.sessions.token(id);
         let replaced = shared.sessions.open(token);
         // Its last session, if still alive here, ends now: the worker gave it up.
         if shared.sessions.replace(hello.replaces, id) {
