@@ -49,7 +49,10 @@ pub struct CandidateNumber(pub u64);
 /// A candidate of a run: run index, generation and candidate number. The generation is
 /// part of the identity because a draw of the initial population that turned out not to
 /// be needed shares its number with a candidate of generation 1: a late result for the
-/// draw must never be taken for the offspring.
+/// draw must never be taken for the offspring. For the same reason a candidate drawn ahead
+/// of its generation (before the generation before it was complete) is told apart from the
+/// one drawn when the generation opens: they share a number and a generation, but not
+/// always a parent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct CandidateKey {
     /// Its run.
@@ -58,14 +61,24 @@ pub struct CandidateKey {
     pub generation: u32,
     /// Candidate number within the run.
     pub number: CandidateNumber,
+    /// Drawn ahead of its generation, from a guess at the library its generation is bred
+    /// from; kept only if the generation, once open, draws the very same candidate.
+    pub drawn_ahead: bool,
 }
 
 impl std::fmt::Display for CandidateKey {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "run {} generation {} candidate {}",
-            self.run, self.generation, self.number.0
+            "run {} generation {} candidate {}{}",
+            self.run,
+            self.generation,
+            self.number.0,
+            if self.drawn_ahead {
+                " (drawn ahead)"
+            } else {
+                ""
+            }
         )
     }
 }

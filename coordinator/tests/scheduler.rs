@@ -482,6 +482,7 @@ fn an_experiments_initial_designs_are_its_first_initial_candidates_then_random_o
                 run: RunId::from_index(run),
                 generation: 0,
                 number: CandidateNumber(number),
+                drawn_ahead: false,
             };
             let a = &seeded[&key];
             let controller = match a.scheme {

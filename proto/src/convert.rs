@@ -81,6 +81,7 @@ impl From<CandidateKey> for v1::CandidateId {
             run: k.run.0,
             generation: k.generation,
             number: k.number.0,
+            drawn_ahead: k.drawn_ahead,
         }
     }
 }
@@ -91,6 +92,7 @@ impl From<&v1::CandidateId> for CandidateKey {
             run: strider_common::RunId(id.run),
             generation: id.generation,
             number: CandidateNumber(id.number),
+            drawn_ahead: id.drawn_ahead,
         }
     }
 }

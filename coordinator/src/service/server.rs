@@ -181,6 +181,15 @@ pub async fn serve(
             }
         }
     };
+    let ahead = shared.with(false, |s| s.ahead_counts());
+    if ahead.leased > 0 {
+        tracing::info!(
+            "candidates drawn ahead while generations finished: {} leased, {} kept with their trials, {} dropped (their generation drew otherwise)",
+            ahead.leased,
+            ahead.kept,
+            ahead.dropped
+        );
+    }
     for t in tasks {
         t.abort();
         // Awaited, so that a progress bar is cleared before the closing lines print.
@@ -235,13 +244,14 @@ async fn start_scheduler(
     if left_open > 0 {
         tracing::info!("{left_open} worker sessions of a coordinator that stopped first closed");
     }
-    let scheduler = Scheduler::new(
+    let mut scheduler = Scheduler::new(
         experiment.clone(),
         runs,
         stored,
         opts.lease,
         opts.max_attempts,
     );
+    scheduler.draw_ahead(true);
     let (writer_tx, writer_rx) = mpsc::unbounded_channel();
     let backlog = Arc::new(super::Backlog::default());
     let writer = tokio::spawn(run_writer(db.clone(), writer_rx, backlog.clone()));

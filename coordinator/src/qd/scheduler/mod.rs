@@ -9,11 +9,12 @@
 //! Reproducibility: a candidate is a pure function of (run seed, candidate number, the
 //! library it was bred from), results are applied in candidate order, and the initial
 //! population ends at the candidate that brings its passes to the target. So neither the
-//! number of workers, nor their speed, nor restarts change a run.
+//! number of workers, nor their speed, nor restarts change a run. Candidates drawn ahead
+//! of their generation (`ahead`) are kept only where the generation draws them anyway.
 
 use crate::qd::changes::{AppliedCandidate, StepCommit, StoredPending, Write};
 use crate::qd::evolution::{initial_candidate, offspring, Parents};
-use crate::qd::library::{CellChange, GenerationStats, Placement};
+use crate::qd::library::{CellChange, GenerationStats, Library, Placement};
 use crate::qd::run::RunRecord;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::{Duration, Instant};
@@ -26,10 +27,12 @@ use strider_common::{
 };
 use strider_common::{EvalContext, RunId, WorkerId};
 
+mod ahead;
 mod progress;
 mod shares;
 mod steps;
 
+pub use ahead::AheadCounts;
 pub use progress::{fraction_done, RunProgress};
 pub use shares::fair_share;
 pub use steps::cell_of;
@@ -119,6 +122,28 @@ struct Pending {
     /// Worker sessions already charged an attempt for it (each counts once).
     charged: Vec<WorkerId>,
     state: State,
+    /// Drawn ahead of its generation ([`CandidateKey::drawn_ahead`]): its key says so for
+    /// its whole life, kept or not.
+    drawn_ahead: bool,
+    /// Its result's write, held while it is drawn ahead and not yet kept: a candidate its
+    /// generation does not draw must leave no trace in the database.
+    deferred: Option<Write>,
+}
+
+impl Pending {
+    /// Whether `key` names this candidate (its number already matched).
+    fn answers_to(&self, key: CandidateKey) -> bool {
+        self.generation == key.generation && self.drawn_ahead == key.drawn_ahead
+    }
+
+    fn key(&self, run: RunId, number: u64) -> CandidateKey {
+        CandidateKey {
+            run,
+            generation: self.generation,
+            number: CandidateNumber(number),
+            drawn_ahead: self.drawn_ahead,
+        }
+    }
 }
 
 struct RunState {
@@ -131,6 +156,34 @@ struct RunState {
     frontier: u64,
     /// Draw no initial candidate from this number on (a replay of stored history).
     draw_limit: u64,
+    /// The next generation's candidates drawn ahead, while the open one finishes.
+    ahead: Option<ahead::Ahead>,
+}
+
+impl RunState {
+    /// Whether candidate `number` in the step is drawn ahead and not yet kept.
+    fn is_ahead(&self, number: u64) -> bool {
+        self.ahead.as_ref().is_some_and(|a| number >= a.first)
+    }
+
+    /// The first number drawn ahead (none: `u64::MAX`): the open step is below it.
+    fn ahead_from(&self) -> u64 {
+        self.ahead.as_ref().map_or(u64::MAX, |a| a.first)
+    }
+
+    /// The open step's candidates, without those drawn ahead.
+    fn open_step(&self) -> std::collections::btree_map::Range<'_, u64, Pending> {
+        self.step.range(..self.ahead_from())
+    }
+
+    /// Where candidate `number` waits for a worker: the open step's queue, or the queue
+    /// of those drawn ahead.
+    fn queue_of(&mut self, number: u64) -> &mut BTreeSet<u64> {
+        match &mut self.ahead {
+            Some(a) if number >= a.first => &mut a.waiting,
+            _ => &mut self.waiting,
+        }
+    }
 }
 
 /// Every run of an experiment being served.
@@ -148,6 +201,9 @@ pub struct Scheduler {
     steps_applied: u64,
     /// False once told to stop leasing (a batch job's time limit nears).
     leasing: bool,
+    /// Whether idle workers get the next generation's candidates drawn ahead.
+    draw_ahead: bool,
+    ahead_counts: AheadCounts,
 }
 
 impl Scheduler {
@@ -171,6 +227,7 @@ impl Scheduler {
                     record,
                     step: BTreeMap::new(),
                     waiting: BTreeSet::new(),
+                    ahead: None,
                 })
                 .collect(),
             stored: stored
@@ -180,6 +237,7 @@ impl Scheduler {
                         run: p.run,
                         generation: p.generation,
                         number: p.number,
+                        drawn_ahead: false,
                     };
                     (key, p)
                 })
@@ -190,6 +248,8 @@ impl Scheduler {
             writes: Vec::new(),
             steps_applied: 0,
             leasing: true,
+            draw_ahead: false,
+            ahead_counts: AheadCounts::default(),
         };
         for i in 0..s.runs.len() {
             if !s.runs[i].record.finished && !s.initial_phase(i) {
@@ -236,12 +296,13 @@ impl Scheduler {
             return false;
         }
         let window = |r: &RunState| r.frontier - r.record.next_candidate < INITIAL_WINDOW;
-        self.runs.iter().any(|r| {
+        self.runs.iter().enumerate().any(|(i, r)| {
             !r.record.finished
                 && (!r.waiting.is_empty()
                     || (r.record.initial_passed < self.experiment.run.initial_population
                         && window(r)
-                        && r.frontier < r.draw_limit))
+                        && r.frontier < r.draw_limit)
+                    || self.may_draw_ahead(i))
         })
     }
 
@@ -262,17 +323,26 @@ impl Scheduler {
         if !self.leasing {
             return out;
         }
-        let n = self.runs.len();
-        let mut idle = 0;
-        while out.len() < max && idle < n {
-            let i = self.cursor % n;
-            self.cursor = self.cursor.wrapping_add(1);
-            match self.take_one(i, worker, now) {
-                Some(a) => {
-                    out.push(a);
-                    idle = 0;
+        // The open steps first; then, for what room is left, the next generations'
+        // candidates drawn ahead.
+        for ahead in [false, true] {
+            let n = self.runs.len();
+            let mut idle = 0;
+            while out.len() < max && idle < n {
+                let i = self.cursor % n;
+                self.cursor = self.cursor.wrapping_add(1);
+                let taken = if ahead {
+                    self.take_ahead(i, worker, now)
+                } else {
+                    self.take_one(i, worker, now)
+                };
+                match taken {
+                    Some(a) => {
+                        out.push(a);
+                        idle = 0;
+                    }
+                    None => idle += 1,
                 }
-                None => idle += 1,
             }
         }
         out
@@ -286,9 +356,14 @@ impl Scheduler {
             self.draw_initial(i);
             self.advance(i);
         }
+        let number = self.runs[i].waiting.pop_first()?;
+        Some(self.hand_out(i, number, worker, now))
+    }
+
+    /// Leases waiting candidate `number` of run `i` to `worker`.
+    fn hand_out(&mut self, i: usize, number: u64, worker: WorkerId, now: Instant) -> Assignment {
         let expires = now + self.lease;
         let r = &mut self.runs[i];
-        let number = r.waiting.pop_first()?;
         let p = r
             .step
             .get_mut(&number)
@@ -298,18 +373,14 @@ impl Scheduler {
             expires,
             started: false,
         };
-        let key = CandidateKey {
-            run: RunId::from_index(i),
-            generation: p.generation,
-            number: CandidateNumber(number),
-        };
-        Some(Assignment {
+        let key = p.key(RunId::from_index(i), number);
+        Assignment {
             key,
             genome: p.genome,
             scheme: r.record.spec.scheme,
             run_seed: r.record.spec.seed,
             to_beat: p.to_beat,
-        })
+        }
     }
 
     /// Takes a result. The caller has checked that this worker was leased the candidate
@@ -338,8 +409,9 @@ impl Scheduler {
         let i = key.run.index();
         let r = self.runs.get_mut(i).ok_or(Refusal::NoSuchRun(key.run))?;
         let number = key.number.0;
+        let ahead = r.is_ahead(number);
         match r.step.get_mut(&number) {
-            Some(p) if p.generation == key.generation => {
+            Some(p) if p.answers_to(key) => {
                 if let Outcome::Valid {
                     fitness,
                     outranked: true,
@@ -353,9 +425,8 @@ impl Scheduler {
                         });
                     }
                 }
-                r.waiting.remove(&number);
                 p.state = State::Resolved(outcome.clone());
-                self.writes.push(Write::Resolved {
+                let write = Write::Resolved {
                     run: r.record.id,
                     number: key.number,
                     generation: p.generation,
@@ -363,7 +434,13 @@ impl Scheduler {
                     outcome,
                     worker: Some(worker),
                     seconds,
-                });
+                };
+                if ahead {
+                    p.deferred = Some(write);
+                } else {
+                    self.writes.push(write);
+                }
+                r.queue_of(number).remove(&number);
                 self.advance(i);
                 Ok(Accepted::Stored)
             }
@@ -431,8 +508,9 @@ impl Scheduler {
         };
         let number = key.number.0;
         match r.step.get(&number) {
-            Some(p) if p.generation == key.generation => matches!(p.state, State::Resolved(_)),
-            // A dropped initial draw whose number a later generation reuses.
+            Some(p) if p.answers_to(key) => matches!(p.state, State::Resolved(_)),
+            // A dropped initial draw whose number a later generation reuses, or a
+            // candidate drawn ahead that its generation drew otherwise.
             Some(_) => true,
             None => number < r.record.next_candidate || number < r.frontier,
         }
@@ -478,11 +556,7 @@ impl Scheduler {
                 } = p.state
                 {
                     if f(worker, expires, started) {
-                        out.push(CandidateKey {
-                            run: RunId::from_index(i),
-                            generation: p.generation,
-                            number: CandidateNumber(*n),
-                        });
+                        out.push(p.key(RunId::from_index(i), *n));
                     }
                 }
             }
@@ -503,10 +577,11 @@ impl Scheduler {
         let Some(r) = self.runs.get_mut(i) else {
             return;
         };
+        let ahead = r.is_ahead(key.number.0);
         let Some(p) = r.step.get_mut(&key.number.0) else {
             return;
         };
-        if p.generation != key.generation {
+        if !p.answers_to(key) {
             return;
         }
         let State::Leased { worker, .. } = p.state else {
@@ -531,7 +606,7 @@ impl Scheduler {
                     controller: p.genome.controller,
                 };
                 p.state = State::Resolved(outcome.clone());
-                self.writes.push(Write::Resolved {
+                let write = Write::Resolved {
                     run,
                     number: key.number,
                     generation: p.generation,
@@ -539,14 +614,19 @@ impl Scheduler {
                     outcome,
                     worker: None,
                     seconds: 0.0,
-                });
+                };
+                if ahead {
+                    p.deferred = Some(write);
+                } else {
+                    self.writes.push(write);
+                }
                 self.advance(i);
                 return;
             }
         }
         p.state = State::Waiting;
-        r.waiting.insert(key.number.0);
-        if lost.is_some() {
+        // A candidate drawn ahead leaves no trace until kept (its attempts go with it).
+        if lost.is_some() && !ahead {
             self.writes.push(Write::LeaseLost {
                 run,
                 number: key.number,
@@ -555,6 +635,7 @@ impl Scheduler {
                 worker,
             });
         }
+        r.queue_of(key.number.0).insert(key.number.0);
     }
 
     fn pending_mut(&mut self, key: CandidateKey) -> Option<&mut Pending> {
@@ -562,7 +643,7 @@ impl Scheduler {
             .get_mut(key.run.index())?
             .step
             .get_mut(&key.number.0)
-            .filter(|p| p.generation == key.generation)
+            .filter(|p| p.answers_to(key))
     }
 
     /// A run's record (position and library), for tests and tools.

@@ -57,10 +57,11 @@ impl Scheduler {
             .iter()
             .enumerate()
             .map(|(i, r)| {
+                // Candidates drawn ahead count once their generation keeps them.
+                let open = r.open_step().count() as u64;
                 let resolved = r
-                    .step
-                    .values()
-                    .filter(|p| matches!(p.state, State::Resolved(_)))
+                    .open_step()
+                    .filter(|(_, p)| matches!(p.state, State::Resolved(_)))
                     .count() as u64;
                 RunProgress {
                     run: RunId::from_index(i),
@@ -70,7 +71,7 @@ impl Scheduler {
                     generation: r.record.generation,
                     initial_passed: r.record.initial_passed,
                     trials_done: r.record.next_candidate + resolved,
-                    trials_pending: r.step.len() as u64 - resolved,
+                    trials_pending: open - resolved,
                     library: r.record.summary(GenerationStats::default(), cells),
                     finished: r.record.finished,
                 }

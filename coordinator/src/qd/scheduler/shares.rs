@@ -42,6 +42,10 @@ impl Scheduler {
                     }
                 }
             }
+            // The next generation, if it may be drawn ahead, is demand too.
+            if self.may_draw_ahead(i) && r.ahead.is_none() {
+                unanswered += self.experiment.run.offspring_per_generation as usize;
+            }
             // Enough for every slot: the share could not bind.
             if unanswered >= all_slots {
                 return None;

@@ -32,12 +32,31 @@ impl Scheduler {
         }
     }
 
-    /// Breeds the run's next generation from its library.
+    /// Breeds the run's next generation from its library, keeping the candidates drawn
+    /// ahead that it draws exactly as they were.
     pub(super) fn open_generation(&mut self, i: usize) {
         let r = &self.runs[i].record;
-        let (scheme, first, generation) = (r.spec.scheme, r.next_candidate, r.generation + 1);
+        let (first, generation) = (r.next_candidate, r.generation + 1);
         let count = u64::from(self.experiment.run.offspring_per_generation);
-        let record = &self.runs[i].record;
+        let genomes = self.breed(i, &self.runs[i].record, first..first + count);
+        self.runs[i].ahead = None;
+        for (number, genome) in (first..first + count).zip(genomes) {
+            if !self.keep_drawn_ahead(i, number, generation, &genome) {
+                self.add(i, number, generation, genome);
+            }
+        }
+        // Never lower: spare initial draws above this range may still send late results.
+        let r = &mut self.runs[i];
+        r.frontier = r.frontier.max(first + count);
+    }
+
+    /// Offspring `numbers` of run `i` bred from `record`'s libraries.
+    pub(super) fn breed(
+        &self,
+        i: usize,
+        record: &RunRecord,
+        numbers: impl IntoIterator<Item = u64>,
+    ) -> Vec<Genome> {
         let parents = match self.experiment.search.constraints {
             ConstraintHandling::Reject => Parents::Feasible(&record.library),
             ConstraintHandling::FeasibleInfeasible => Parents::Both {
@@ -47,23 +66,36 @@ impl Scheduler {
                 tournament: self.experiment.search.infeasible_tournament,
             },
         };
-        let genomes: Vec<Genome> = (first..first + count)
+        numbers
+            .into_iter()
             .map(|number| {
                 offspring(
                     &parents,
-                    scheme,
+                    record.spec.scheme,
                     &self.experiment.mutation,
                     self.seed(i, number),
                 )
                 .expect("the libraries hold the initial population")
             })
-            .collect();
-        for (number, genome) in (first..first + count).zip(genomes) {
-            self.add(i, number, generation, genome);
+            .collect()
+    }
+
+    /// The bar a candidate of `generation` must pass to enter `library`: the elite its
+    /// cell holds when it is drawn, which stays until the generation's end (none in the
+    /// initial population, whose library grows as it is applied). ES takes none (it
+    /// confirms only a child that beats its parent).
+    pub(super) fn to_beat(
+        &self,
+        library: &Library,
+        scheme: Scheme,
+        generation: u32,
+        genome: &Genome,
+    ) -> Option<f64> {
+        if generation == 0 || scheme == Scheme::Es || library.is_empty() {
+            None
+        } else {
+            library.get(cell_of(&self.ctx, genome)).map(|e| e.fitness)
         }
-        // Never lower: spare initial draws above this range may still send late results.
-        let r = &mut self.runs[i];
-        r.frontier = r.frontier.max(first + count);
     }
 
     /// Adds a candidate to the step: its stored result if the database has one, else
@@ -75,6 +107,7 @@ impl Scheduler {
             run,
             generation,
             number: CandidateNumber(number),
+            drawn_ahead: false,
         };
         let (attempts, state) = match self.stored.remove(&key) {
             Some(stored) => (
@@ -88,15 +121,7 @@ impl Scheduler {
                 precheck(&self.ctx, &genome, scheme).map_or(State::Waiting, State::Resolved),
             ),
         };
-        // The bar to enter the library: the elite its cell holds now, which stays until the
-        // generation's end (none in the initial population, whose library grows as it is
-        // applied). ES takes none (it confirms only a child that beats its parent).
-        let library = &self.runs[i].record.library;
-        let to_beat = if generation == 0 || scheme == Scheme::Es || library.is_empty() {
-            None
-        } else {
-            library.get(cell_of(&self.ctx, &genome)).map(|e| e.fitness)
-        };
+        let to_beat = self.to_beat(&self.runs[i].record.library, scheme, generation, &genome);
         let r = &mut self.runs[i];
         if state == State::Waiting {
             r.waiting.insert(number);
@@ -110,6 +135,8 @@ impl Scheduler {
                 attempts,
                 charged: Vec::new(),
                 state,
+                drawn_ahead: false,
+                deferred: None,
             },
         );
     }
@@ -202,18 +229,21 @@ impl Scheduler {
         let generations = self.experiment.run.generations;
         let mode = self.experiment.search.constraints;
         let r = &mut self.runs[i];
-        let complete = !r.step.is_empty()
-            && r.step
-                .values()
-                .all(|p| matches!(p.state, State::Resolved(_)));
+        let ahead_from = r.ahead_from();
+        let complete = r.open_step().next().is_some()
+            && r.open_step()
+                .all(|(_, p)| matches!(p.state, State::Resolved(_)));
         if !complete {
             return false;
         }
         let generation = r.record.generation + 1;
         let mut stats = GenerationStats::default();
         let mut changed = Changed::default();
-        let mut applied = Vec::with_capacity(r.step.len());
-        for (n, p) in std::mem::take(&mut r.step) {
+        // What was drawn ahead stays for the next generation to keep or drop.
+        let drawn_ahead = r.step.split_off(&ahead_from);
+        let step = std::mem::replace(&mut r.step, drawn_ahead);
+        let mut applied = Vec::with_capacity(step.len());
+        for (n, p) in step {
             let State::Resolved(outcome) = p.state else {
                 unreachable!()
             };
@@ -295,7 +325,7 @@ struct Changed {
 }
 
 /// What one result did to a run's libraries.
-struct Placed {
+pub(super) struct Placed {
     feasible: Placement,
     infeasible: Option<CellChange>,
     /// The cell it was placed in, when it changed a library.
@@ -324,7 +354,7 @@ impl Placed {
 /// Applies one result to a run's libraries: a valid design to the feasible library; under
 /// feasible-infeasible search, a simulated design that missed the brief to the infeasible
 /// library, in its features' cell.
-fn place(
+pub(super) fn place(
     ctx: &EvalContext,
     mode: ConstraintHandling,
     record: &mut RunRecord,
