@@ -130,6 +130,7 @@ fn confirmed(c: &mut Criterion) {
                 scheme: Scheme::Static,
                 seed,
                 to_beat: None,
+                later: false,
                 core: cores.clone().try_acquire_owned().unwrap(),
                 answer,
             });

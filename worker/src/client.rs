@@ -415,6 +415,7 @@ async fn session(
                     scheme: j.scheme,
                     seed: j.seed,
                     to_beat: j.to_beat,
+                    later: j.id.drawn_ahead,
                     core: permit,
                     answer: answer.clone(),
                 });

@@ -32,6 +32,9 @@ pub struct Trial<K> {
     /// The fitness of the elite its cell held when it was drawn, if any
     /// ([`evaluate_to_enter`]).
     pub to_beat: Option<f64>,
+    /// Drawn ahead of its generation (`CandidateKey::drawn_ahead`): it waits for every
+    /// other trial and for jobs of help, which finish the open generation.
+    pub later: bool,
     /// The core it holds: released when the trial ends, before its answer is sent.
     pub core: OwnedSemaphorePermit,
     /// Where the answer goes; a closed receiver (a session that ended) drops it.
@@ -74,8 +77,12 @@ struct Queue<K> {
 struct QueueState<K> {
     trials: VecDeque<Trial<K>>,
     help: VecDeque<Job>,
+    /// Trials drawn ahead, taken last.
+    later: VecDeque<Trial<K>>,
     /// Threads waiting for work.
     idle: usize,
+    /// Threads running a trial drawn ahead: each takes a job of help next.
+    running_later: usize,
     /// The pool was dropped: threads end once no trial waits.
     closed: bool,
 }
@@ -86,7 +93,9 @@ impl<K> Queue<K> {
             state: Mutex::new(QueueState {
                 trials: VecDeque::new(),
                 help: VecDeque::new(),
+                later: VecDeque::new(),
                 idle: 0,
+                running_later: 0,
                 closed: false,
             }),
             ready: Condvar::new(),
@@ -98,8 +107,8 @@ impl<K> Queue<K> {
         self.state.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// The next work, a trial before a job of help; `None` once the pool is dropped and
-    /// nothing waits.
+    /// The next work: a trial, then a job of help, then a trial drawn ahead; `None` once
+    /// the pool is dropped and nothing waits.
     fn next(&self) -> Option<Work<K>> {
         let mut s = self.lock();
         loop {
@@ -108,6 +117,10 @@ impl<K> Queue<K> {
             }
             if let Some(job) = s.help.pop_front() {
                 return Some(Work::Help(job));
+            }
+            if let Some(t) = s.later.pop_front() {
+                s.running_later += 1;
+                return Some(Work::Trial(t));
             }
             if s.closed {
                 return None;
@@ -122,8 +135,10 @@ impl<K> Queue<K> {
 impl<K: Send> Offer for Queue<K> {
     fn offer(&self, job: Job) -> bool {
         let mut s = self.lock();
-        // Only for a thread that would otherwise wait: one per job or trial waiting.
-        if s.idle <= s.help.len() + s.trials.len() {
+        // Only for a thread that would otherwise wait, or that runs a trial drawn ahead
+        // (it takes the job when that ends, if the holder has not started that trial by
+        // then): one per job or trial waiting.
+        if s.idle + s.running_later <= s.help.len() + s.trials.len() {
             return false;
         }
         s.help.push_back(job);
@@ -157,6 +172,10 @@ impl<K: Send + 'static> SimPool<K> {
                     help::install(Some(queue.clone() as Arc<dyn Offer>));
                     while let Some(work) = queue.next() {
                         match work {
+                            Work::Trial(t) if t.later => {
+                                answer_trial(t, eval);
+                                queue.lock().running_later -= 1;
+                            }
                             Work::Trial(t) => answer_trial(t, eval),
                             // A job catches its trial's panic for its holder; this only
                             // keeps the thread should the job itself fail.
@@ -178,7 +197,13 @@ impl<K: Send + 'static> SimPool<K> {
     /// Hands a trial to the next free thread (callers hold a core permit, so a thread is
     /// free or about to be; one may first finish a trial it took to help another).
     pub fn run(&self, trial: Trial<K>) {
-        self.queue.lock().trials.push_back(trial);
+        let mut s = self.queue.lock();
+        if trial.later {
+            s.later.push_back(trial);
+        } else {
+            s.trials.push_back(trial);
+        }
+        drop(s);
         self.queue.ready.notify_one();
     }
 }
@@ -217,6 +242,7 @@ mod tests {
                 scheme: Scheme::Static,
                 seed: CandidateSeed::new(1, i as u64),
                 to_beat: None,
+                later: false,
                 core,
                 answer: answer.clone(),
             });
@@ -276,6 +302,7 @@ mod tests {
                 scheme: Scheme::Static,
                 seed: CandidateSeed::new(1, i),
                 to_beat: None,
+                later: false,
                 core,
                 answer: answer.clone(),
             });
@@ -344,6 +371,7 @@ mod tests {
                 scheme: Scheme::Static,
                 seed,
                 to_beat: None,
+                later: false,
                 core,
                 answer,
             });
@@ -374,6 +402,7 @@ mod tests {
             scheme: Scheme::Static,
             seed: CandidateSeed::new(0, 0),
             to_beat: None,
+            later: false,
             core: cores.try_acquire_owned().unwrap(),
             answer,
         });
@@ -385,6 +414,38 @@ mod tests {
         assert!(matches!(queue.next(), Some(Work::Help(_))));
         queue.lock().closed = true;
         assert!(queue.next().is_none(), "closed and empty: the thread ends");
+    }
+
+    #[test]
+    fn help_comes_before_trials_drawn_ahead_and_waits_for_a_thread_running_one() {
+        let queue = Queue::<u32>::new();
+        let cores = Arc::new(Semaphore::new(2));
+        let (answer, _answers) = flume::unbounded();
+        let trial = |key| Trial {
+            key,
+            ctx: EvalContext::paper(),
+            genome: strider_common::reference::max(),
+            scheme: Scheme::Static,
+            seed: CandidateSeed::new(0, 0),
+            to_beat: None,
+            later: true,
+            core: cores.clone().try_acquire_owned().unwrap(),
+            answer: answer.clone(),
+        };
+        queue.lock().later.push_back(trial(1));
+        queue.lock().later.push_back(trial(2));
+        assert!(matches!(
+            queue.next(),
+            Some(Work::Trial(Trial { key: 1, .. }))
+        ));
+        // The thread running trial 1 takes the job when it is done, before trial 2.
+        assert!(queue.offer(Box::new(|| ())));
+        assert!(!queue.offer(Box::new(|| ())), "one thread, one job");
+        assert!(matches!(queue.next(), Some(Work::Help(_))));
+        assert!(matches!(
+            queue.next(),
+            Some(Work::Trial(Trial { key: 2, .. }))
+        ));
     }
 
     #[test]
