@@ -3,6 +3,7 @@
 //! result are those of a scheduler that never draws ahead; a candidate drawn ahead that
 //! its generation draws otherwise leaves no trace, and its late result is ignored.
 
+use std::collections::HashMap;
 use std::time::{Duration, Instant};
 use strider_common::rng::CandidateSeed;
 use strider_common::{CandidateKey, EvalContext, Experiment, Outcome, RunId, WorkerId};
@@ -235,4 +236,44 @@ fn a_candidate_drawn_ahead_and_dropped_is_drawn_again_and_its_late_result_ignore
         }
     }
     panic!("no candidate drawn ahead was dropped in the whole run");
+}
+
+#[test]
+fn a_candidate_drawn_ahead_is_never_drawn_again_once_leased_whatever_comes_in_meanwhile() {
+    let e = experiment("reject");
+    let mut s = scheduler(&e, true);
+    let mut now = Instant::now();
+    let w = WorkerId(0);
+    // What each candidate drawn ahead was when first leased.
+    let mut first: HashMap<CandidateKey, Assignment> = HashMap::new();
+    let mut leased_again = 0;
+    let mut rounds = 0;
+    while !s.finished() {
+        rounds += 1;
+        assert!(rounds < 10_000, "no progress");
+        // Each round: everything leasable is leased, one candidate of the open generations
+        // answered (so the guess changes), and every other lease left to expire, so that
+        // candidates drawn ahead come back to wait while results arrive.
+        let mut answered_one = false;
+        for a in s.lease(w, now, 1000) {
+            if a.key.drawn_ahead {
+                match first.get(&a.key) {
+                    None => {
+                        first.insert(a.key, a.clone());
+                    }
+                    Some(f) => {
+                        assert_eq!((f.genome, f.to_beat), (a.genome, a.to_beat), "{}", a.key);
+                        leased_again += 1;
+                        s.accept(w, a.key, outcome_of(&e, &a), 0.0).unwrap();
+                    }
+                }
+            } else if !answered_one {
+                answered_one = true;
+                s.accept(w, a.key, outcome_of(&e, &a), 0.0).unwrap();
+            }
+        }
+        now += Duration::from_secs(11);
+        s.expire(now);
+    }
+    assert!(leased_again > 0, "no candidate drawn ahead came back");
 }

@@ -400,7 +400,10 @@ async fn session(
             },
             permit = cores.clone().acquire_owned(), if !queue.is_empty() => {
                 let permit = permit.expect("the semaphore is never closed");
-                let j = queue.pop_front().expect("checked non-empty");
+                // The open generations' candidates first: one drawn ahead of its
+                // generation waits for them (and may be dropped meanwhile).
+                let next = queue.iter().position(|j| !j.id.drawn_ahead).unwrap_or(0);
+                let j = queue.remove(next).expect("checked non-empty");
                 running.insert(CandidateKey::from(&j.id));
                 // Said before simulating, so that a worker that dies in this trial counts
                 // against the candidate (a crash it causes is caught after a few).

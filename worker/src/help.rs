@@ -7,9 +7,10 @@
 //! for. When a simulation thread of the same pool has nothing to do (the end of a
 //! generation, or more cores than candidates), or runs a trial drawn ahead of its
 //! generation (which the open generation's end matters more than), it takes the last of
-//! those trials, once free, while the holder runs them from the first. The answer is the one the holder alone would give, bit
-//! for bit: each trial is a function of the design and its settings, and the verdict is the
-//! first refusal in the fixed order whoever ran which. A helper's trial that no longer
+//! those trials, once free, while the holder runs them from the first. The answer is the
+//! one the holder alone would give, bit for bit: each trial is a function of the design
+//! and its settings, and the verdict is the first refusal in the fixed order whoever ran
+//! which. A helper's trial that no longer
 //! counts (an earlier one refused, or the holder panicked) is abandoned at its next
 //! control step; the time it ran is the price, paid by a thread that had nothing to do.
 //!

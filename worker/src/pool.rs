@@ -67,6 +67,12 @@ fn answer_trial<K>(t: Trial<K>, eval: Evaluate) {
     let _ = t.answer.send((t.key, outcome, seconds));
 }
 
+thread_local! {
+    /// This thread runs a trial drawn ahead (counted in `running_later`): it cannot take
+    /// the job of help its own trial offers.
+    static RUNNING_LATER: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// The threads' work: trials, and jobs of help (crate::help), under one lock so that a
 /// thread waiting for either is woken by both and counted idle exactly.
 struct Queue<K> {
@@ -137,8 +143,9 @@ impl<K: Send> Offer for Queue<K> {
         let mut s = self.lock();
         // Only for a thread that would otherwise wait, or that runs a trial drawn ahead
         // (it takes the job when that ends, if the holder has not started that trial by
-        // then): one per job or trial waiting.
-        if s.idle + s.running_later <= s.help.len() + s.trials.len() {
+        // then), other than the one asking: one per job or trial waiting.
+        let asking = usize::from(RUNNING_LATER.get());
+        if s.idle + s.running_later - asking <= s.help.len() + s.trials.len() {
             return false;
         }
         s.help.push_back(job);
@@ -173,7 +180,9 @@ impl<K: Send + 'static> SimPool<K> {
                     while let Some(work) = queue.next() {
                         match work {
                             Work::Trial(t) if t.later => {
+                                RUNNING_LATER.set(true);
                                 answer_trial(t, eval);
+                                RUNNING_LATER.set(false);
                                 queue.lock().running_later -= 1;
                             }
                             Work::Trial(t) => answer_trial(t, eval),
@@ -438,7 +447,14 @@ mod tests {
             queue.next(),
             Some(Work::Trial(Trial { key: 1, .. }))
         ));
-        // The thread running trial 1 takes the job when it is done, before trial 2.
+        // Asked by the thread running trial 1 itself: no one could take it.
+        RUNNING_LATER.set(true);
+        assert!(
+            !queue.offer(Box::new(|| ())),
+            "the asking thread is not a helper"
+        );
+        RUNNING_LATER.set(false);
+        // Asked by another: the thread running trial 1 takes it when done, before trial 2.
         assert!(queue.offer(Box::new(|| ())));
         assert!(!queue.offer(Box::new(|| ())), "one thread, one job");
         assert!(matches!(queue.next(), Some(Work::Help(_))));

@@ -183,12 +183,7 @@ pub async fn serve(
     };
     let ahead = shared.with(false, |s| s.ahead_counts());
     if ahead.leased > 0 {
-        tracing::info!(
-            "candidates drawn ahead while generations finished: {} leased, {} kept with their trials, {} dropped (their generation drew otherwise)",
-            ahead.leased,
-            ahead.kept,
-            ahead.dropped
-        );
+        tracing::info!("candidates drawn ahead while generations finished: {ahead}");
     }
     for t in tasks {
         t.abort();

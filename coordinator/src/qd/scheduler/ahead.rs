@@ -19,6 +19,9 @@ pub(super) struct Ahead {
     pub(super) first: u64,
     /// Those not leased, lowest number first.
     pub(super) waiting: BTreeSet<u64>,
+    /// Those ever leased: never drawn again, as a worker may still answer for what it was
+    /// given (a lease that expired goes back to `waiting` as it was).
+    handed: BTreeSet<u64>,
     /// How many of the open step's candidates were resolved when those waiting were drawn.
     basis: usize,
 }
@@ -33,6 +36,16 @@ pub struct AheadCounts {
     pub kept: u64,
     /// The ones their generation drew otherwise: their trials wasted.
     pub dropped: u64,
+}
+
+impl std::fmt::Display for AheadCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} leased, {} kept with their trials, {} dropped (their generation drew otherwise)",
+            self.leased, self.kept, self.dropped
+        )
+    }
 }
 
 impl Scheduler {
@@ -78,13 +91,16 @@ impl Scheduler {
         if r.ahead.as_ref().is_none_or(|a| a.basis < resolved) {
             self.redraw_ahead(i, resolved);
         }
-        let number = self.runs[i].ahead.as_mut()?.waiting.pop_first()?;
+        let ahead = self.runs[i].ahead.as_mut()?;
+        let number = ahead.waiting.pop_first()?;
+        ahead.handed.insert(number);
         self.ahead_counts.leased += 1;
         Some(self.hand_out(i, number, worker, now))
     }
 
     /// Draws run `i`'s next generation ahead, or again those of its candidates no worker
-    /// has, from the run's record with the open generation's `resolved` results applied.
+    /// has (never leased), from the run's record with the open generation's `resolved`
+    /// results applied.
     fn redraw_ahead(&mut self, i: usize, resolved: usize) {
         let count = u64::from(self.experiment.run.offspring_per_generation);
         let mode = self.experiment.search.constraints;
@@ -99,7 +115,7 @@ impl Scheduler {
         }
         let numbers: Vec<u64> = match &r.ahead {
             None => (first..first + count).collect(),
-            Some(a) => a.waiting.iter().copied().collect(),
+            Some(a) => a.waiting.difference(&a.handed).copied().collect(),
         };
         let genomes = self.breed(i, &guess, numbers.iter().copied());
         let mut drawn = Vec::with_capacity(numbers.len());
@@ -113,6 +129,7 @@ impl Scheduler {
         let ahead = r.ahead.get_or_insert_with(|| Ahead {
             first,
             waiting: BTreeSet::new(),
+            handed: BTreeSet::new(),
             basis: 0,
         });
         ahead.basis = resolved;

@@ -22,8 +22,13 @@ impl Scheduler {
     /// worker keeps twice its threads in hand, so one of 30 threads or more would otherwise
     /// lease a whole generation of a one-run experiment while the others waited. No cap
     /// while any run can still draw initial designs (as many as asked for, up to its
-    /// window).
+    /// window). The next generations' candidates drawn ahead count only once no open step
+    /// has any waiting: until then the shares are of the open steps, which go first.
     pub fn lease_cap(&self, worker: WorkerId, slots: usize, all_slots: usize) -> Option<usize> {
+        let drawing_ahead = self
+            .runs
+            .iter()
+            .all(|r| r.record.finished || r.waiting.is_empty());
         let (mut unanswered, mut held) = (0, 0);
         for (i, r) in self.runs.iter().enumerate() {
             if r.record.finished {
@@ -32,7 +37,12 @@ impl Scheduler {
             if self.initial_phase(i) && r.frontier < r.draw_limit {
                 return None;
             }
-            for p in r.step.values() {
+            let counted = if drawing_ahead {
+                u64::MAX
+            } else {
+                r.ahead_from()
+            };
+            for (_, p) in r.step.range(..counted) {
                 match p.state {
                     State::Resolved(_) => {}
                     State::Waiting => unanswered += 1,
@@ -42,8 +52,8 @@ impl Scheduler {
                     }
                 }
             }
-            // The next generation, if it may be drawn ahead, is demand too.
-            if self.may_draw_ahead(i) && r.ahead.is_none() {
+            // The next generation, if it may be drawn ahead and is not yet, is demand too.
+            if drawing_ahead && self.may_draw_ahead(i) && r.ahead.is_none() {
                 unanswered += self.experiment.run.offspring_per_generation as usize;
             }
             // Enough for every slot: the share could not bind.
