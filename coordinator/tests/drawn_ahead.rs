@@ -46,15 +46,35 @@ fn scheduler(e: &Experiment, ahead: bool) -> Scheduler {
 }
 
 /// The made-up but deterministic outcome a benchmark worker would send (a pure function
-/// of the candidate, as a trial is).
+/// of the candidate and its bar, as a trial is), marked `outranked` as a real trial is when
+/// it meets the brief no fitter than its bar, and with the bar in its energy or the time it
+/// ended: so the bar a candidate is leased with shows in what is written, and a candidate
+/// drawn ahead against another bar than its generation gives it must not be kept (the test
+/// below fails if one is).
 fn outcome_of(e: &Experiment, a: &Assignment) -> Outcome {
-    instant_outcome(
+    let mut outcome = instant_outcome(
         &EvalContext::of(e),
         &a.genome,
         a.scheme,
         CandidateSeed::new(a.run_seed.0, a.key.number.0),
         a.to_beat,
-    )
+    );
+    let fitness = outcome.fitness();
+    let bar = a.to_beat.unwrap_or(0.0);
+    match &mut outcome {
+        Outcome::Valid {
+            outranked, stats, ..
+        } => {
+            *outranked = fitness.is_some_and(|f| a.to_beat.is_some_and(|b| f <= b));
+            stats.energy += bar;
+        }
+        Outcome::Rejected {
+            stats: Some(stats), ..
+        } => stats.energy += bar,
+        Outcome::Invalid { at_time, .. } => *at_time += bar,
+        Outcome::Rejected { stats: None, .. } => {}
+    }
+    outcome
 }
 
 /// What a run leaves: every run's libraries, and every result written to the database
@@ -139,12 +159,13 @@ fn shuffle(h: &mut [(WorkerId, Assignment)]) {
 
 #[test]
 fn drawing_ahead_changes_no_library_and_no_stored_result_whatever_the_workers() {
+    let mut for_bar_in_all = 0;
     for constraints in ["reject", "feasible-infeasible"] {
         let e = experiment(constraints);
         let (reference, s) = drive(&e, false, 1, 1, |_| {}, |_| false);
         assert_eq!(s.ahead_counts().leased, 0, "off: nothing drawn ahead");
         assert!(reference.0.iter().all(|(l, _)| l.len() >= 3));
-        let (mut kept, mut dropped) = (0, 0);
+        let (mut kept, mut dropped, mut for_bar) = (0, 0, 0);
         for (workers, slots) in [(3, 4), (2, 7), (1, 25)] {
             for (order, reorder) in [
                 ("as leased", (|_: &mut [_]| {}) as fn(&mut [_])),
@@ -165,8 +186,10 @@ fn drawing_ahead_changes_no_library_and_no_stored_result_whatever_the_workers() 
                     assert_eq!(ending.1, off.1, "written results: {case}");
                     let c = s.ahead_counts();
                     assert!(c.kept + c.dropped <= c.leased, "{case}: {c:?}");
+                    assert!(c.dropped_for_bar <= c.dropped, "{case}: {c:?}");
                     kept += c.kept;
                     dropped += c.dropped;
+                    for_bar += c.dropped_for_bar;
                 }
             }
         }
@@ -175,7 +198,12 @@ fn drawing_ahead_changes_no_library_and_no_stored_result_whatever_the_workers() 
             kept > 0 && dropped > 0,
             "{constraints}: kept {kept}, dropped {dropped}"
         );
+        for_bar_in_all += for_bar;
     }
+    // Among the dropped, designs drawn the same against another bar (outcomes here depend
+    // on the bar, as a trial's do: keeping one would write another outcome than the
+    // reference's).
+    assert!(for_bar_in_all > 0);
 }
 
 #[test]

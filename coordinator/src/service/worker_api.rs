@@ -4,7 +4,7 @@
 
 use super::Shared;
 use crate::qd::changes::Write;
-use crate::qd::scheduler::Refusal;
+use crate::qd::scheduler::{Accepted, Refusal};
 use std::collections::HashSet;
 use std::pin::Pin;
 use std::sync::atomic::Ordering;
@@ -395,12 +395,16 @@ impl Session {
         })?;
         self.held.remove(&key);
         self.results += 1;
-        let second = self.shared.running_seconds() as u64;
-        self.shared
-            .throughput
-            .lock()
-            .expect("no panic while counting")
-            .record(second);
+        // A result the candidate already had, or of one drawn ahead and dropped since, is
+        // no work done for the run: not counted in results per second.
+        if accepted == Accepted::Stored {
+            let second = self.shared.running_seconds() as u64;
+            self.shared
+                .throughput
+                .lock()
+                .expect("no panic while counting")
+                .record(second);
+        }
         tracing::trace!(worker = id.0, %key, ?accepted, "result");
         Ok(())
     }

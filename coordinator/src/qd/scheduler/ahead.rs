@@ -36,14 +36,18 @@ pub struct AheadCounts {
     pub kept: u64,
     /// The ones their generation drew otherwise: their trials wasted.
     pub dropped: u64,
+    /// Of the dropped, those drawn the same bit for bit but leased with another bar (their
+    /// cell's elite changed in between), which a trial ends differently against.
+    pub dropped_for_bar: u64,
 }
 
 impl std::fmt::Display for AheadCounts {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} leased, {} kept with their trials, {} dropped (their generation drew otherwise)",
-            self.leased, self.kept, self.dropped
+            "{} leased, {} kept with their trials, {} dropped (their generation drew \
+             otherwise; {} of them the same design against another bar)",
+            self.leased, self.kept, self.dropped, self.dropped_for_bar
         )
     }
 }
@@ -140,16 +144,7 @@ impl Scheduler {
                 ahead.waiting.insert(number);
                 r.step.insert(
                     number,
-                    Pending {
-                        generation,
-                        genome,
-                        to_beat,
-                        attempts: 0,
-                        charged: Vec::new(),
-                        state: State::Waiting,
-                        drawn_ahead: true,
-                        deferred: None,
-                    },
+                    Pending::new(generation, genome, to_beat, 0, State::Waiting, true),
                 );
             }
         }
@@ -181,19 +176,20 @@ impl Scheduler {
             number: CandidateNumber(number),
             drawn_ahead: false,
         };
-        let same = p.generation == generation
+        let same_design = p.generation == generation
             && same_bits(&p.genome, genome)
-            && p.to_beat.map(f64::to_bits) == to_beat.map(f64::to_bits)
             // A result stored for the generation's own draw wins (none is, in practice:
             // nothing drawn ahead is stored until kept).
             && !self.stored.contains_key(&key);
+        let same_bar = p.to_beat.map(f64::to_bits) == to_beat.map(f64::to_bits);
         let r = &mut self.runs[i];
         let mut p = r.step.remove(&number).expect("looked up above");
         if !worked {
             return false;
         }
-        if !same {
+        if !(same_design && same_bar) {
             self.ahead_counts.dropped += 1;
+            self.ahead_counts.dropped_for_bar += u64::from(same_design);
             return false;
         }
         self.ahead_counts.kept += 1;

@@ -132,6 +132,27 @@ struct Pending {
 }
 
 impl Pending {
+    /// A candidate just drawn: charged to no worker, no write held.
+    fn new(
+        generation: u32,
+        genome: Genome,
+        to_beat: Option<f64>,
+        attempts: u32,
+        state: State,
+        drawn_ahead: bool,
+    ) -> Self {
+        Self {
+            generation,
+            genome,
+            to_beat,
+            attempts,
+            charged: Vec::new(),
+            state,
+            drawn_ahead,
+            deferred: None,
+        }
+    }
+
     /// Whether `key` names this candidate (its number already matched).
     fn answers_to(&self, key: CandidateKey) -> bool {
         self.generation == key.generation && self.drawn_ahead == key.drawn_ahead

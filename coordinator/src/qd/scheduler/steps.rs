@@ -128,16 +128,7 @@ impl Scheduler {
         }
         r.step.insert(
             number,
-            Pending {
-                generation,
-                genome,
-                to_beat,
-                attempts,
-                charged: Vec::new(),
-                state,
-                drawn_ahead: false,
-                deferred: None,
-            },
+            Pending::new(generation, genome, to_beat, attempts, state, false),
         );
     }
 
