@@ -5,7 +5,11 @@ window after it) with only its lower legs on the ground and, through the trial, 
 its parts touching (but those joined by a hinge), and how its feet stepped over the trial,
 measured as Strider measures them (docs/model.md section 6, "Feet that step"): the
 distance a foot slid while on the ground (mean over feet), the share of the feet's forward
-travel within 3 cm of the ground, and the duty factor.
+travel within 3 cm of the ground, and the duty factor; `peak_torque_ratio` is the largest
+torque a joint received over its limit (the URDF's `effort`), 1.0 when a joint was held at
+its limit. On stderr, a line a person reads: the two engines side by side over the trial
+(the body's forward travel and the energy, both of which the trace carries for Strider) and
+whether they agree within 10 %.
 
 Everything comes from Strider's own files: the URDF (links, masses, inertias, joints; each
 joint's torque limit is its `effort`, its servo gains the `<dynamics>` `spring_stiffness`
@@ -32,6 +36,7 @@ import argparse
 import csv
 import json
 import math
+import sys
 import xml.etree.ElementTree as ET
 
 import pybullet as p
@@ -166,9 +171,12 @@ energy, peak, max_tilt, ended, feet_steps = 0.0, 0.0, 0.0, None, 0
 for foot in feet:
     foot["at"], foot["down"] = foot_position(foot), False
 end_com = None
+start_body_x = p.getBasePositionAndOrientation(robot)[0][0]
+end_body_x = None
 for step in range(total_steps):
     if step == trial_steps:
         end_com = com()
+        end_body_x = p.getBasePositionAndOrientation(robot)[0][0]
     q_star = targets[min(step // per_control, len(targets) - 1)]
     states = p.getJointStates(robot, joints)
     torques = []
@@ -223,6 +231,7 @@ for step in range(total_steps):
         break
 if end_com is None:
     end_com = com()
+    end_body_x = p.getBasePositionAndOrientation(robot)[0][0]
 forward = sum(f["forward"] for f in feet)
 
 print(json.dumps({
@@ -240,3 +249,37 @@ print(json.dumps({
     },
     "hz": args.hz,
 }))
+
+# For a person: Strider's figures over the trial from its trace (the row at the trial's
+# end; the trace's body x is forward from the start pose, as PyBullet's is here), against
+# PyBullet's.
+ours = next((r for r in rows if abs(float(r["time_s"]) - args.trial_seconds) < 0.5 * control_dt), None)
+trial_done = ended is None or ended["at_time"] > args.trial_seconds
+if ours is None:
+    print(f"pybullet ({args.hz:g} Hz): the trace ends before {args.trial_seconds:g} s, so "
+          "Strider's trial ended early: nothing to compare", file=sys.stderr)
+else:
+    our_x, our_energy = float(ours["x_forward_m"]), float(ours["energy_J"])
+    their_x = end_body_x - start_body_x
+
+    def rel(theirs, mine):
+        return f"{100.0 * (theirs - mine) / abs(mine):+.1f} %" if mine else "n/a"
+
+    print(f"strider (the trace, over the {args.trial_seconds:g}-s trial): body forward "
+          f"{our_x:.3f} m, energy {our_energy:.1f} J", file=sys.stderr)
+    how = "upright through the trial and the window" if ended is None else (
+        f"{ended['how']} at {ended['at_time']:.2f} s")
+    print(f"pybullet ({args.hz:g} Hz): {how}; body forward {their_x:.3f} m "
+          f"({rel(their_x, our_x)}), energy {energy:.1f} J ({rel(energy, our_energy)}); "
+          f"peak torque {peak:.2f} of the limit", file=sys.stderr)
+    span = float(rows[-1]["time_s"])
+    # The bar of pybullet_agreement.py and docs/model.md section 6: upright, and the
+    # distance within 10 %. Strider's own verdict (the brief, its window) is `eval`'s.
+    if ended is not None:
+        verdict = f"the engines differ: in PyBullet the robot {how} (Strider's trace runs {span:.2f} s)"
+    elif trial_done and our_x != 0.0 and abs(their_x - our_x) <= 0.1 * abs(our_x):
+        verdict = (f"the engines agree: in PyBullet upright through the trace's {span:.2f} s, "
+                   "the distance within 10 % of Strider's")
+    else:
+        verdict = "the engines differ: the distance more than 10 % from Strider's"
+    print(verdict, file=sys.stderr)
