@@ -42,6 +42,11 @@ impl Outputs {
         self.files.push((path.into(), bytes.into()));
     }
 
+    /// The paths of the files added, in order.
+    pub fn paths(&self) -> Vec<PathBuf> {
+        self.files.iter().map(|(p, _)| p.clone()).collect()
+    }
+
     /// Writes every file under a temporary name beside it, then renames each into place.
     /// If any cannot be written, the temporaries are removed and no file is changed; a
     /// rename fails only where the directory itself changed meanwhile.

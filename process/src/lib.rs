@@ -104,6 +104,15 @@ pub fn init_logs_at(default: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// A count with its noun, singular for one: `1 worker`, `0 workers`, `3 runs`.
+pub fn count_words(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// A duration for people: `40 s`, `12 min`, `3 h 05 min`.
 pub fn duration_words(seconds: f64) -> String {
     let s = seconds.max(0.0).round() as u64;

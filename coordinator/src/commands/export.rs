@@ -157,11 +157,16 @@ async fn export_genome(
     let found = library_export::find(&runs, choice, experiment.features.cell_count())
         .map_err(anyhow::Error::msg)?;
     match to {
-        Some(file) => std::fs::write(file, found.genome.to_json_pretty() + "\n")
-            .with_context(|| format!("writing {}", file.display()))?,
-        None => outln!("{}", found.genome.to_json_pretty()),
+        Some(file) => {
+            std::fs::write(file, found.genome.to_json_pretty() + "\n")
+                .with_context(|| format!("writing {}", file.display()))?;
+            eprintln!("{found} -> {}", file.display());
+        }
+        None => {
+            outln!("{}", found.genome.to_json_pretty());
+            eprintln!("{found}");
+        }
     }
-    eprintln!("{found}");
     Ok(())
 }
 

@@ -237,8 +237,21 @@ async fn replay(
     let trial_seconds = experiment.run.trial_seconds;
     let run_id = run.id;
     let measured = tokio::task::spawn_blocking(move || {
+        // About a quarter of a second of CPU a design: minutes for a large run, so it says
+        // how far it is (a bar on a terminal, a line each quarter elsewhere).
+        let total = jobs.len();
+        let bar = strider_process::terminal::Bar::start(total as u64, "designs");
+        let done = std::sync::atomic::AtomicUsize::new(0);
         strider_worker::batch::map_batch(&jobs, threads, |(library, cell, genome, animate)| {
             let m = strider_worker::replay::measure(&ctx, genome, animate.then_some(0.1));
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            match &bar {
+                Some(bar) => bar.set_position(n as u64),
+                None if total >= 200 && (4 * n / total) > (4 * (n - 1) / total) => {
+                    eprintln!("replayed {n} of {total} designs of run {run_id}");
+                }
+                None => {}
+            }
             let replay = m.frames.map(|mut frames| {
                 // The trial and a second after it: the 15-s stay-up window after a
                 // feasible trial made the picture 4,000 px wide (26 m walked).

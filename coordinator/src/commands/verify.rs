@@ -45,10 +45,10 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
     let candidates = db.candidates().await?;
     let mut verdict = crate::qd::verify::replay(&experiment, &runs, &candidates);
     outln!(
-        "replayed {} of {} stored candidates over {} runs",
+        "replayed {} of {} stored candidates over {}",
         verdict.replayed,
         candidates.len(),
-        runs.len()
+        strider_process::count_words(runs.len(), "run")
     );
     // Every row against its checksum: damage that leaves the replay agreeing (an
     // outcome's figure that no placement depends on) still shows here.

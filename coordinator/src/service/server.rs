@@ -509,8 +509,9 @@ fn progress_bar_state(shared: &Shared) -> (u64, String) {
         .map(|r| r.best_fitness)
         .fold(0.0_f64, f64::max);
     let message = format!(
-        "{left}{:.1}/s, {feasible} feasible cells, best {best:.3}, {} workers",
-        p.trials_per_second, p.workers_connected,
+        "{left}{:.1}/s, {feasible} feasible cells, best {best:.3}, {}",
+        p.trials_per_second,
+        strider_process::count_words(p.workers_connected as usize, "worker"),
     );
     (position, message)
 }
@@ -527,10 +528,10 @@ pub fn progress_line(shared: &Shared) -> String {
         None => String::new(),
     };
     let mut line = format!(
-        "[{:7.1} s] {:.1} results/s, {} workers, {:.1} % done{left}",
+        "[{:7.1} s] {:.1} results/s, {}, {:.1} % done{left}",
         shared.uptime(),
         p.trials_per_second,
-        p.workers_connected,
+        strider_process::count_words(p.workers_connected as usize, "worker"),
         100.0 * p.fraction_done,
     );
     let initial = shared.with(false, |s| s.experiment().run.initial_population);

@@ -112,7 +112,12 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
             outputs.add(path, filmstrip_svg(&plan, &stills, &title));
         }
     }
+    let written = outputs.paths();
     outputs.commit()?;
+    if !written.is_empty() {
+        let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("wrote {}", names.join(", "));
+    }
     if json {
         outln!(
             "{}",
