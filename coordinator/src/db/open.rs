@@ -3,6 +3,7 @@
 
 use super::experiment::seal_experiment;
 use super::*;
+use sqlx::ConnectOptions;
 
 /// The writer's lock on a database: an advisory lock on `NAME.lock` beside it, held while
 /// this value lives (and released by the system when the process ends, however it ends).
@@ -91,6 +92,12 @@ fn lock(path: &Path) -> Result<WriterLock, DbError> {
         path: lock_path,
     })
 }
+
+/// When sqlx warns of a slow statement (its default, 1 s, warned at every resume of the
+/// full-size run: its consistency checks read every candidate row, about 2 s of its 400 MB
+/// when cold). Expected work is not a warning; a statement stuck for this long is.
+const SLOW_STATEMENT: (log::LevelFilter, std::time::Duration) =
+    (log::LevelFilter::Warn, std::time::Duration::from_secs(30));
 
 /// How long [`Db::close`] waits for connections still in use to come back.
 const CLOSE_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
@@ -187,7 +194,8 @@ impl Db {
             .pragma("temp_store", "MEMORY")
             // Checkpoints run beside the writer (`Db::checkpoint`, the writer task's
             // checkpointer), not inside its commits, where they took a fifth of its time.
-            .pragma("wal_autocheckpoint", "0");
+            .pragma("wal_autocheckpoint", "0")
+            .log_slow_statements(SLOW_STATEMENT.0, SLOW_STATEMENT.1);
         // One writer (the writer task, or `run`'s loop) and a few readers (client calls):
         // WAL lets them read while it writes.
         let pool = SqlitePoolOptions::new()
@@ -242,7 +250,8 @@ impl Db {
         let options = SqliteConnectOptions::from_str(&format!("sqlite://{}", path.display()))
             .map_err(open_error)?
             .read_only(true)
-            .immutable(immutable);
+            .immutable(immutable)
+            .log_slow_statements(SLOW_STATEMENT.0, SLOW_STATEMENT.1);
         let pool = SqlitePoolOptions::new()
             .max_connections(4)
             .connect_with(options)
