@@ -15,12 +15,15 @@ Usage: python3 bench/mujoco-max.py max.urdf max.start_pose.json max.csv [--hz 24
 Needs `pip install mujoco`.
 """
 import argparse
-import csv
-import json
+import sys
 import time
-import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import mujoco
+
+# Strider's files read as the PyBullet replay reads them.
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "python"))
+from strider_files import Trace, read_start_pose, read_urdf, servos, trace_order  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("urdf")
@@ -38,25 +41,16 @@ spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[50, 50, 0.1],
 spec.option.timestep = 1.0 / args.hz
 model = spec.compile()
 
-servo = {}
-for joint in ET.parse(args.urdf).getroot().iter("joint"):
-    if joint.get("type") == "revolute":
-        dyn, limit = joint.find("dynamics"), joint.find("limit")
-        servo[joint.get("name")] = (float(dyn.get("spring_stiffness")),
-                                    float(dyn.get("damping")), float(limit.get("effort")))
-# The trace lists joints leg by leg: leg{L}_{hip,upper,lower}, as pybullet_replay.py.
-names = sorted(servo, key=lambda s: (int(s[3:s.index("_")]),
-                                     ["hip", "upper", "lower"].index(s.split("_")[1])))
+servo = servos(read_urdf(args.urdf))
+names = trace_order(servo)
 qpos = [model.jnt_qposadr[model.joint(n).id] for n in names]
 dofs = [model.jnt_dofadr[model.joint(n).id] for n in names]
 gains = [servo[n] for n in names]
-with open(args.trace) as f:
-    rows = list(csv.DictReader(f))
-columns = [c for c in rows[0] if "_target" in c]
-targets = [[float(r[c]) for c in columns] for r in rows]
-with open(args.start_pose) as f:
-    pose = json.load(f)
-per_control = round(args.hz * (float(rows[1]["time_s"]) - float(rows[0]["time_s"])))
+trace = Trace(args.trace)
+rows, targets = trace.rows, trace.targets
+assert len(names) == len(trace.target_columns), (names, trace.target_columns)
+pose = read_start_pose(args.start_pose)
+per_control = round(args.hz * trace.control_dt)
 steps = per_control * len(rows)
 
 

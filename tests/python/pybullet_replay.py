@@ -33,13 +33,13 @@ lets the robot's parts pass through each other (Strider's collide, except across
 and a self-contact ends the trial).
 """
 import argparse
-import csv
 import json
 import math
 import sys
-import xml.etree.ElementTree as ET
 
 import pybullet as p
+
+from strider_files import Trace, read_start_pose, read_urdf, servos, trace_order
 
 ap = argparse.ArgumentParser()
 ap.add_argument("urdf")
@@ -58,29 +58,13 @@ ap.add_argument("--self-contact", type=int, choices=[0, 1], default=1)
 args = ap.parse_args()
 
 # The URDF, parsed once: the servos here, the feet's tube sizes below.
-urdf_root = ET.parse(args.urdf).getroot()
-
-# The servo of every joint, from the URDF.
-servo = {}
-for joint in urdf_root.iter("joint"):
-    if joint.get("type") != "revolute":
-        continue
-    dyn, limit = joint.find("dynamics"), joint.find("limit")
-    servo[joint.get("name")] = (
-        float(dyn.get("spring_stiffness")),
-        float(dyn.get("damping")),
-        float(limit.get("effort")),
-    )
-
+urdf_root = read_urdf(args.urdf)
+servo = servos(urdf_root)
 # The targets over each control step, and the control step's length.
-with open(args.trace) as f:
-    rows = list(csv.DictReader(f))
-target_columns = [c for c in rows[0] if "_target" in c]
-control_dt = float(rows[1]["time_s"]) - float(rows[0]["time_s"])
-targets = [[float(r[c]) for c in target_columns] for r in rows]
-
-with open(args.start_pose) as f:
-    pose = json.load(f)
+trace = Trace(args.trace)
+rows, target_columns, control_dt, targets = (
+    trace.rows, trace.target_columns, trace.control_dt, trace.targets)
+pose = read_start_pose(args.start_pose)
 
 p.connect(p.DIRECT)
 p.setGravity(0, 0, -9.81)
@@ -105,8 +89,7 @@ n = p.getNumJoints(robot)
 info = [p.getJointInfo(robot, i) for i in range(n)]
 index = {i[1].decode(): i[0] for i in info}
 link_names = {i[0]: i[12].decode() for i in info}
-# Strider's trace lists joints leg by leg in the URDF's leg order: leg{L}_{hip,upper,lower}.
-names = sorted(servo, key=lambda s: (int(s[3:s.index("_")]), ["hip", "upper", "lower"].index(s.split("_")[1])))
+names = trace_order(servo)
 assert len(names) == len(target_columns), (names, target_columns)
 joints = [index[name] for name in names]
 for name, q in pose["joints"].items():
