@@ -25,9 +25,11 @@
 //! only every [`SNAPSHOT_EVERY`] steps, and put back as it was before a step by restoring
 //! the copy and taking again the steps since, with the targets and limits they had: a
 //! step is a function of the world and its drives alone, so the replayed steps are the
-//! same bit for bit and so is the trial. A robot whose velocities or poses changed between
-//! steps (the trial's shove), or a step of another length, is copied afresh: the state a
-//! step finds is compared with the one the last step left. Any other change to the world
+//! same bit for bit and so is the trial. Each copy is taken into the last one's buffers
+//! (the vendored rapier's `clone_from`), not allocated afresh. A robot whose velocities or
+//! poses changed between steps (the trial's shove), or a step of another length, is
+//! copied afresh: the state a step finds is compared with the one the last step left.
+//! Any other change to the world
 //! between steps (forces on its bodies, other bodies, joint settings besides the drives)
 //! must be followed by [`DrivenStepper::world_changed`], or a retake would undo it.
 
@@ -87,6 +89,17 @@ impl Snapshot {
         }
     }
 
+    /// Copies the world into this snapshot's own buffers (the vendored rapier's
+    /// `clone_from` reuses them where it can): the same copy as [`Snapshot::take`].
+    fn retake(&mut self, world: &PhysicsWorld) {
+        self.bodies.clone_from(&world.bodies);
+        self.colliders.clone_from(&world.colliders);
+        self.multibody_joints.clone_from(&world.multibody_joints);
+        self.islands.clone_from(&world.islands);
+        self.broad_phase.clone_from(&world.broad_phase);
+        self.narrow_phase.clone_from(&world.narrow_phase);
+    }
+
     fn restore(&self, world: &mut PhysicsWorld) {
         world.bodies.clone_from(&self.bodies);
         world.colliders.clone_from(&self.colliders);
@@ -114,8 +127,11 @@ pub struct DrivenStepper {
     /// Steps between copies ([`SNAPSHOT_EVERY`]).
     every: usize,
     forced: Vec<f64>,
-    /// The world before the steps in `since`.
+    /// The world before the steps in `since` (unless `stale`), its buffers kept for the
+    /// next copy.
     snapshot: Option<Snapshot>,
+    /// The snapshot is not of this world's last state: the next step copies it afresh.
+    stale: bool,
     /// The targets and held limits of each step since the snapshot (the first
     /// `since_len` of them; the vectors are kept to be reused).
     since: Vec<(Vec<f64>, Vec<f64>)>,
@@ -147,6 +163,7 @@ impl DrivenStepper {
             every,
             forced: vec![0.0; joints],
             snapshot: None,
+            stale: true,
             since: vec![(vec![0.0; joints], vec![0.0; joints]); every],
             since_len: 0,
             replay_drives: vec![StepDrive::default(); joints],
@@ -158,7 +175,7 @@ impl DrivenStepper {
     /// Takes the next step from a fresh copy of the world: to be called after changing the
     /// world between steps in any way besides the robot's velocities and poses.
     pub fn world_changed(&mut self) {
-        self.snapshot = None;
+        self.stale = true;
     }
 
     /// One physics step of `dt` toward `targets`. Afterwards `drives`, `speeds` and
@@ -166,8 +183,12 @@ impl DrivenStepper {
     /// The stepper must step one world only, from its start (the copies are of it).
     pub fn step(&mut self, rw: &mut RobotWorld, dt: f64, targets: &[f64]) {
         state_bits(rw, dt, &mut self.found);
-        if self.snapshot.is_none() || self.since_len == self.every || self.found != self.left {
-            self.snapshot = Some(Snapshot::take(&rw.world));
+        if self.stale || self.since_len == self.every || self.found != self.left {
+            match &mut self.snapshot {
+                Some(snapshot) => snapshot.retake(&rw.world),
+                None => self.snapshot = Some(Snapshot::take(&rw.world)),
+            }
+            self.stale = false;
             self.since_len = 0;
             self.copies += 1;
         }

@@ -23,7 +23,7 @@ use core::slice;
 ///
 /// [See the module-level documentation for example usage and motivation.](./index.html)
 #[cfg(feature = "alloc")]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 pub struct Arena<T> {
     items: Vec<Entry<T>>,
@@ -32,12 +32,64 @@ pub struct Arena<T> {
     len: usize,
 }
 
+/// Strider patch: `clone_from` hands each occupied slot to its value's `clone_from`, so a
+/// value that reuses its buffers (a multibody) does so in an arena too.
 #[cfg(feature = "alloc")]
-#[derive(Clone, Debug)]
+impl<T: Clone> Clone for Arena<T> {
+    fn clone(&self) -> Self {
+        Arena {
+            items: self.items.clone(),
+            generation: self.generation,
+            free_list_head: self.free_list_head,
+            len: self.len,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.items.clone_from(&source.items);
+        self.generation = source.generation;
+        self.free_list_head = source.free_list_head;
+        self.len = source.len;
+    }
+}
+
+#[cfg(feature = "alloc")]
+#[derive(Debug)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 enum Entry<T> {
     Free { next_free: Option<u32> },
     Occupied { generation: u32, value: T },
+}
+
+#[cfg(feature = "alloc")]
+impl<T: Clone> Clone for Entry<T> {
+    fn clone(&self) -> Self {
+        match self {
+            Entry::Free { next_free } => Entry::Free {
+                next_free: *next_free,
+            },
+            Entry::Occupied { generation, value } => Entry::Occupied {
+                generation: *generation,
+                value: value.clone(),
+            },
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        match (self, source) {
+            (
+                Entry::Occupied { generation, value },
+                Entry::Occupied {
+                    generation: g,
+                    value: v,
+                },
+            ) => {
+                *generation = *g;
+                value.clone_from(v);
+            }
+            (me, source) => *me = source.clone(),
+        }
+    }
 }
 
 /// An index (and generation) into an `Arena`.

@@ -2,10 +2,23 @@ use crate::alloc_prelude::*;
 use crate::data::arena::Index;
 
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 /// A container for data associated to item existing into another Arena.
 pub struct Coarena<T> {
     data: Vec<(u32, T)>,
+}
+
+/// Strider patch: `clone_from` into the coarena's own buffer.
+impl<T: Clone> Clone for Coarena<T> {
+    fn clone(&self) -> Self {
+        Coarena {
+            data: self.data.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.data.clone_from(&source.data);
+    }
 }
 
 impl<T> Coarena<T> {

@@ -103,7 +103,7 @@ pub struct Node<N> {
 }
 
 /// The graph's edge type.
-#[derive(Debug, Copy, Clone)]
+#[derive(Debug)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 pub struct Edge<E> {
     /// Associated edge data.
@@ -119,6 +119,28 @@ pub struct Edge<E> {
     node: [NodeIndex; 2],
 }
 
+impl<E: Copy> Copy for Edge<E> {}
+
+/// Strider patch: `clone_from` hands the weight to its own `clone_from` (a contact pair
+/// reuses its buffers).
+impl<E: Clone> Clone for Edge<E> {
+    fn clone(&self) -> Self {
+        Edge {
+            weight: self.weight.clone(),
+            next: self.next,
+            prev: self.prev,
+            node: self.node,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.weight.clone_from(&source.weight);
+        self.next = source.next;
+        self.prev = source.prev;
+        self.node = source.node;
+    }
+}
+
 impl<E> Edge<E> {
     /// Return the source node index.
     pub fn source(&self) -> NodeIndex {
@@ -131,11 +153,26 @@ impl<E> Edge<E> {
     }
 }
 
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 pub struct Graph<N, E> {
     pub(crate) nodes: Vec<Node<N>>,
     pub(crate) edges: Vec<Edge<E>>,
+}
+
+/// Strider patch: `clone_from` into the graph's own buffers.
+impl<N: Clone, E: Clone> Clone for Graph<N, E> {
+    fn clone(&self) -> Self {
+        Graph {
+            nodes: self.nodes.clone(),
+            edges: self.edges.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.nodes.clone_from(&source.nodes);
+        self.edges.clone_from(&source.edges);
+    }
 }
 
 enum Pair<T> {

@@ -9,8 +9,19 @@ use core::ops::Deref;
 /// It is possible to bypass the wrapper with `.as_mut_internal`. But this should only
 /// be done for internal engine usage (like the physics pipeline).
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct ModifiedObjects<Handle, Object>(Vec<Handle>, PhantomData<Object>);
+
+/// Strider patch: `clone_from` into the list's own buffer.
+impl<Handle: Clone, Object> Clone for ModifiedObjects<Handle, Object> {
+    fn clone(&self) -> Self {
+        Self(self.0.clone(), PhantomData)
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.0.clone_from(&source.0);
+    }
+}
 
 impl<Handle, Object> Default for ModifiedObjects<Handle, Object> {
     fn default() -> Self {

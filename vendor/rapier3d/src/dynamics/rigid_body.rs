@@ -42,7 +42,7 @@ use crate::num::Zero;
 ///     .build();
 /// let handle = bodies.insert(body);
 /// ```
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 // #[repr(C)]
 // #[repr(align(64))]
 pub struct RigidBody {
@@ -82,6 +82,103 @@ pub struct RigidBody {
     pub(crate) soft_motion_margin: Real,
     /// User-defined data associated to this rigid-body.
     pub user_data: u128,
+}
+
+/// Strider patch: `clone_from` keeps the body's buffers (its list of colliders, the box of
+/// its additional mass properties): the worker copies the world every few steps. Every
+/// field is named, so one added upstream fails to compile here rather than go uncopied.
+impl Clone for RigidBody {
+    fn clone(&self) -> Self {
+        let RigidBody {
+            ids,
+            pos,
+            damping,
+            vels,
+            forces,
+            mprops,
+            ccd_vels,
+            ccd,
+            colliders,
+            activation,
+            changes,
+            body_type,
+            dominance,
+            enabled,
+            additional_solver_iterations,
+            additional_pgs_iterations,
+            soft_body,
+            soft_cluster,
+            soft_motion_margin,
+            user_data,
+        } = self;
+        RigidBody {
+            ids: ids.clone(),
+            pos: pos.clone(),
+            damping: damping.clone(),
+            vels: vels.clone(),
+            forces: forces.clone(),
+            mprops: mprops.clone(),
+            ccd_vels: ccd_vels.clone(),
+            ccd: ccd.clone(),
+            colliders: colliders.clone(),
+            activation: activation.clone(),
+            changes: changes.clone(),
+            body_type: body_type.clone(),
+            dominance: dominance.clone(),
+            enabled: enabled.clone(),
+            additional_solver_iterations: additional_solver_iterations.clone(),
+            additional_pgs_iterations: additional_pgs_iterations.clone(),
+            soft_body: soft_body.clone(),
+            soft_cluster: soft_cluster.clone(),
+            soft_motion_margin: soft_motion_margin.clone(),
+            user_data: user_data.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let RigidBody {
+            ids,
+            pos,
+            damping,
+            vels,
+            forces,
+            mprops,
+            ccd_vels,
+            ccd,
+            colliders,
+            activation,
+            changes,
+            body_type,
+            dominance,
+            enabled,
+            additional_solver_iterations,
+            additional_pgs_iterations,
+            soft_body,
+            soft_cluster,
+            soft_motion_margin,
+            user_data,
+        } = source;
+        self.ids = ids.clone();
+        self.pos = pos.clone();
+        self.damping = damping.clone();
+        self.vels = vels.clone();
+        self.forces = forces.clone();
+        self.mprops.clone_from(mprops);
+        self.ccd_vels = ccd_vels.clone();
+        self.ccd = ccd.clone();
+        self.colliders.0.clone_from(&colliders.0);
+        self.activation = activation.clone();
+        self.changes = changes.clone();
+        self.body_type = body_type.clone();
+        self.dominance = dominance.clone();
+        self.enabled = enabled.clone();
+        self.additional_solver_iterations = additional_solver_iterations.clone();
+        self.additional_pgs_iterations = additional_pgs_iterations.clone();
+        self.soft_body = soft_body.clone();
+        self.soft_cluster = soft_cluster.clone();
+        self.soft_motion_margin = soft_motion_margin.clone();
+        self.user_data = user_data.clone();
+    }
 }
 
 #[cfg(feature = "serde-serialize")]

@@ -319,7 +319,7 @@ impl Default for RigidBodyAdditionalMassProps {
 }
 
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 // #[repr(C)]
 /// The mass properties of a rigid-body.
 pub struct RigidBodyMassProps {
@@ -341,6 +341,51 @@ pub struct RigidBodyMassProps {
     /// a farthest-point speed. Updated with the mass properties; `0` for collider-less bodies.
     #[cfg_attr(feature = "serde-serialize", serde(default))]
     pub(crate) max_extent: Real,
+}
+
+/// Strider patch: `clone_from` keeps the box of the additional mass properties (the worker
+/// copies the world every few steps, and each of a robot's bodies has one).
+impl Clone for RigidBodyMassProps {
+    fn clone(&self) -> Self {
+        let RigidBodyMassProps {
+            world_com,
+            effective_inv_mass,
+            effective_world_inv_inertia,
+            local_mprops,
+            flags,
+            additional_local_mprops,
+            max_extent,
+        } = self;
+        RigidBodyMassProps {
+            world_com: world_com.clone(),
+            effective_inv_mass: effective_inv_mass.clone(),
+            effective_world_inv_inertia: effective_world_inv_inertia.clone(),
+            local_mprops: local_mprops.clone(),
+            flags: flags.clone(),
+            additional_local_mprops: additional_local_mprops.clone(),
+            max_extent: max_extent.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let RigidBodyMassProps {
+            world_com,
+            effective_inv_mass,
+            effective_world_inv_inertia,
+            local_mprops,
+            flags,
+            additional_local_mprops,
+            max_extent,
+        } = source;
+        self.world_com = world_com.clone();
+        self.effective_inv_mass = effective_inv_mass.clone();
+        self.effective_world_inv_inertia = effective_world_inv_inertia.clone();
+        self.local_mprops = local_mprops.clone();
+        self.flags = flags.clone();
+        self.additional_local_mprops
+            .clone_from(additional_local_mprops);
+        self.max_extent = max_extent.clone();
+    }
 }
 
 impl Default for RigidBodyMassProps {

@@ -41,7 +41,7 @@ impl HasModifiedFlag for RigidBody {
 }
 
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Default, Debug)]
+#[derive(Default, Debug)]
 /// The collection that stores all rigid bodies in your physics world.
 ///
 /// This is where you add, remove, and access all your physics objects. Think of it as
@@ -76,6 +76,34 @@ pub struct RigidBodySet {
     pub(crate) modified_bodies: ModifiedRigidBodies,
     #[cfg_attr(feature = "serde-serialize", serde(skip))]
     pub(crate) default_fixed: RigidBody,
+}
+
+/// Strider patch: `clone_from` field by field, each into its own buffers (the bodies'
+/// included, `RigidBody::clone_from`).
+impl Clone for RigidBodySet {
+    fn clone(&self) -> Self {
+        let RigidBodySet {
+            bodies,
+            modified_bodies,
+            default_fixed,
+        } = self;
+        RigidBodySet {
+            bodies: bodies.clone(),
+            modified_bodies: modified_bodies.clone(),
+            default_fixed: default_fixed.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let RigidBodySet {
+            bodies,
+            modified_bodies,
+            default_fixed,
+        } = source;
+        self.bodies.clone_from(bodies);
+        self.modified_bodies.clone_from(modified_bodies);
+        self.default_fixed.clone_from(default_fixed);
+    }
 }
 
 impl RigidBodySet {

@@ -178,7 +178,6 @@ fn default_solver_color_bodies() -> [u32; 2] {
 }
 
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone)]
 /// All contact information between two colliding colliders.
 ///
 /// When two colliders are touching, a ContactPair stores all the contact points, normals,
@@ -224,7 +223,6 @@ pub struct ContactPair {
 /// through raw pointers (see `ManifoldStore`), so the offset of the rigid contacts must not depend
 /// on the value.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone)]
 #[repr(C, u8)]
 #[allow(clippy::large_enum_variant)] // Boxing would move the manifolds off the fixed layout.
 pub enum PairContacts {
@@ -244,7 +242,6 @@ pub enum PairContacts {
 
 /// The contact manifolds of a [`ContactPair`], with the solver's bookkeeping about them.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone)]
 pub struct RigidPairContacts {
     /// The set of contact manifolds between the two colliders.
     ///
@@ -681,7 +678,7 @@ impl ContactPair {
     }
 }
 
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 /// A contact manifold between two colliders.
 ///
@@ -1059,5 +1056,201 @@ mod tests {
             "an unmoved pose drifted by up to {worst} over {n} orientations \
              (rounding noise is {rounding_noise}, the sleep gate allows {allowance} per step)"
         );
+    }
+}
+
+/// Strider patch: manifolds copied into `dest`'s own (their points and solver contacts
+/// into their buffers), the same values as `clone`.
+fn clone_manifolds_from(dest: &mut Vec<ContactManifold>, source: &[ContactManifold]) {
+    dest.truncate(source.len());
+    for (mine, theirs) in dest.iter_mut().zip(source) {
+        let ContactManifold {
+            points,
+            local_n1,
+            local_n2,
+            subshape1,
+            subshape2,
+            subshape_poses,
+            data,
+        } = theirs;
+        mine.points.clone_from(points);
+        mine.local_n1 = *local_n1;
+        mine.local_n2 = *local_n2;
+        mine.subshape1 = *subshape1;
+        mine.subshape2 = *subshape2;
+        mine.subshape_poses.clone_from(subshape_poses);
+        mine.data.clone_from(data);
+    }
+    let have = dest.len();
+    dest.extend(source[have..].iter().cloned());
+}
+
+/// Strider patch: `clone_from` into the pair's own buffers (the worker copies the world
+/// every few steps). Every field is named, so one added upstream fails to compile here
+/// rather than go uncopied.
+impl Clone for ContactPair {
+    fn clone(&self) -> Self {
+        let ContactPair {
+            collider1,
+            collider2,
+            event_status,
+            contacts,
+        } = self;
+        ContactPair {
+            collider1: collider1.clone(),
+            collider2: collider2.clone(),
+            event_status: event_status.clone(),
+            contacts: contacts.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let ContactPair {
+            collider1,
+            collider2,
+            event_status,
+            contacts,
+        } = source;
+        self.collider1 = collider1.clone();
+        self.collider2 = collider2.clone();
+        self.event_status = event_status.clone();
+        self.contacts.clone_from(contacts);
+    }
+}
+
+/// Strider patch: `clone_from` into the pair's own buffers when both are rigid.
+impl Clone for PairContacts {
+    fn clone(&self) -> Self {
+        match self {
+            PairContacts::Rigid(rigid) => PairContacts::Rigid(rigid.clone()),
+            PairContacts::Soft {
+                touching,
+                candidates,
+            } => PairContacts::Soft {
+                touching: *touching,
+                candidates: candidates.clone(),
+            },
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        match (self, source) {
+            (PairContacts::Rigid(mine), PairContacts::Rigid(theirs)) => mine.clone_from(theirs),
+            (me, source) => *me = source.clone(),
+        }
+    }
+}
+
+/// Strider patch: `clone_from` into the pair's own buffers (the worker copies the world
+/// every few steps). Every field is named, so one added upstream fails to compile here
+/// rather than go uncopied.
+impl Clone for RigidPairContacts {
+    fn clone(&self) -> Self {
+        let RigidPairContacts {
+            manifolds,
+            solver_clusters,
+            solver_clusters_prev,
+            solver_color,
+            solver_color_bodies,
+            workspace,
+            recycle_state,
+            soft,
+        } = self;
+        RigidPairContacts {
+            manifolds: manifolds.clone(),
+            solver_clusters: solver_clusters.clone(),
+            solver_clusters_prev: solver_clusters_prev.clone(),
+            solver_color: solver_color.clone(),
+            solver_color_bodies: solver_color_bodies.clone(),
+            workspace: workspace.clone(),
+            recycle_state: recycle_state.clone(),
+            soft: soft.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let RigidPairContacts {
+            manifolds,
+            solver_clusters,
+            solver_clusters_prev,
+            solver_color,
+            solver_color_bodies,
+            workspace,
+            recycle_state,
+            soft,
+        } = source;
+        clone_manifolds_from(&mut self.manifolds, manifolds);
+        clone_manifolds_from(&mut self.solver_clusters, solver_clusters);
+        clone_manifolds_from(&mut self.solver_clusters_prev, solver_clusters_prev);
+        self.solver_color = solver_color.clone();
+        self.solver_color_bodies = solver_color_bodies.clone();
+        self.workspace = workspace.clone();
+        self.recycle_state = recycle_state.clone();
+        self.soft.clone_from(soft);
+    }
+}
+
+/// Strider patch: `clone_from` into its solver contacts' buffer (the worker copies the world
+/// every few steps). Every field is named, so one added upstream fails to compile here
+/// rather than go uncopied.
+impl Clone for ContactManifoldData {
+    fn clone(&self) -> Self {
+        let ContactManifoldData {
+            rigid_body1,
+            rigid_body2,
+            solver_flags,
+            solver_color,
+            solver_body_ids,
+            graph_pos,
+            normal,
+            solver_contacts,
+            relative_dominance,
+            user_data,
+            friction,
+            restitution,
+        } = self;
+        ContactManifoldData {
+            rigid_body1: rigid_body1.clone(),
+            rigid_body2: rigid_body2.clone(),
+            solver_flags: solver_flags.clone(),
+            solver_color: solver_color.clone(),
+            solver_body_ids: solver_body_ids.clone(),
+            graph_pos: graph_pos.clone(),
+            normal: normal.clone(),
+            solver_contacts: solver_contacts.clone(),
+            relative_dominance: relative_dominance.clone(),
+            user_data: user_data.clone(),
+            friction: friction.clone(),
+            restitution: restitution.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let ContactManifoldData {
+            rigid_body1,
+            rigid_body2,
+            solver_flags,
+            solver_color,
+            solver_body_ids,
+            graph_pos,
+            normal,
+            solver_contacts,
+            relative_dominance,
+            user_data,
+            friction,
+            restitution,
+        } = source;
+        self.rigid_body1 = rigid_body1.clone();
+        self.rigid_body2 = rigid_body2.clone();
+        self.solver_flags = solver_flags.clone();
+        self.solver_color = solver_color.clone();
+        self.solver_body_ids = solver_body_ids.clone();
+        self.graph_pos = graph_pos.clone();
+        self.normal = normal.clone();
+        self.solver_contacts.clone_from(solver_contacts);
+        self.relative_dominance = relative_dominance.clone();
+        self.user_data = user_data.clone();
+        self.friction = friction.clone();
+        self.restitution = restitution.clone();
     }
 }

@@ -9,9 +9,22 @@ pub type TemporaryInteractionIndex = EdgeIndex;
 
 /// A graph where nodes are collision objects and edges are contact or proximity algorithms.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct InteractionGraph<N, E> {
     pub(crate) graph: Graph<N, E>,
+}
+
+/// Strider patch: `clone_from` into the graph's own buffers.
+impl<N: Clone, E: Clone> Clone for InteractionGraph<N, E> {
+    fn clone(&self) -> Self {
+        InteractionGraph {
+            graph: self.graph.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.graph.clone_from(&source.graph);
+    }
 }
 
 impl<N: Copy, E> Default for InteractionGraph<N, E> {

@@ -108,10 +108,26 @@ impl Default for GraphPos {
 
 /// The persistent, incrementally-maintained per-color contact buckets, plus
 /// the generic (multibody-involved) manifold list at [`GENERIC_BUCKET`].
-#[derive(Clone, Default)]
+#[derive(Default)]
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 pub(crate) struct SolverContactGraph {
     buckets: Vec<Vec<ContactRef>>,
+}
+
+/// Strider patch: `clone_from` into the buckets' own buffers (the worker copies the world
+/// every few steps).
+impl Clone for SolverContactGraph {
+    fn clone(&self) -> Self {
+        let SolverContactGraph { buckets } = self;
+        SolverContactGraph {
+            buckets: buckets.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let SolverContactGraph { buckets } = source;
+        self.buckets.clone_from(buckets);
+    }
 }
 
 impl SolverContactGraph {

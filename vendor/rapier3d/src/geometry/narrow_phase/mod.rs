@@ -324,7 +324,6 @@ fn collect_pairs_to_update<E>(
 ///
 /// **For spatial queries** (raycasts, shape casts), use [`QueryPipeline`](crate::pipeline::QueryPipeline) instead.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone)]
 pub struct NarrowPhase {
     #[cfg_attr(
         feature = "serde-serialize",
@@ -408,6 +407,108 @@ pub struct NarrowPhase {
     /// step) skip the buffer reallocation of freshly constructed pairs.
     #[cfg_attr(feature = "serde-serialize", serde(skip))]
     retired_pairs: Vec<ContactPair>,
+}
+
+/// Strider patch: `clone_from` field by field, each into its own buffers (the contact
+/// pairs' manifolds included): the worker copies the world every few steps. Every field is
+/// named, so one added upstream fails to compile here rather than go uncopied.
+impl Clone for NarrowPhase {
+    fn clone(&self) -> Self {
+        let NarrowPhase {
+            query_dispatcher,
+            contact_graph,
+            intersection_graph,
+            graph_indices,
+            update_candidates,
+            body_solver_color_masks,
+            body_qualify_info,
+            awake_body_mask,
+            pair_solver_hints,
+            solver_contact_graph,
+            solver_graph_valid,
+            solver_graph_epoch,
+            solver_graph_mb_epoch,
+            solver_graph_dirty,
+            force_event_pairs,
+            force_event_pos,
+            force_event_flagged,
+            force_list_valid,
+            solver_color_todo,
+            soft_self,
+            retired_pairs,
+        } = self;
+        NarrowPhase {
+            query_dispatcher: query_dispatcher.clone(),
+            contact_graph: contact_graph.clone(),
+            intersection_graph: intersection_graph.clone(),
+            graph_indices: graph_indices.clone(),
+            update_candidates: update_candidates.clone(),
+            body_solver_color_masks: body_solver_color_masks.clone(),
+            body_qualify_info: body_qualify_info.clone(),
+            awake_body_mask: awake_body_mask.clone(),
+            pair_solver_hints: pair_solver_hints.clone(),
+            solver_contact_graph: solver_contact_graph.clone(),
+            solver_graph_valid: solver_graph_valid.clone(),
+            solver_graph_epoch: solver_graph_epoch.clone(),
+            solver_graph_mb_epoch: solver_graph_mb_epoch.clone(),
+            solver_graph_dirty: solver_graph_dirty.clone(),
+            force_event_pairs: force_event_pairs.clone(),
+            force_event_pos: force_event_pos.clone(),
+            force_event_flagged: force_event_flagged.clone(),
+            force_list_valid: force_list_valid.clone(),
+            solver_color_todo: solver_color_todo.clone(),
+            soft_self: soft_self.clone(),
+            retired_pairs: retired_pairs.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let NarrowPhase {
+            query_dispatcher,
+            contact_graph,
+            intersection_graph,
+            graph_indices,
+            update_candidates,
+            body_solver_color_masks,
+            body_qualify_info,
+            awake_body_mask,
+            pair_solver_hints,
+            solver_contact_graph,
+            solver_graph_valid,
+            solver_graph_epoch,
+            solver_graph_mb_epoch,
+            solver_graph_dirty,
+            force_event_pairs,
+            force_event_pos,
+            force_event_flagged,
+            force_list_valid,
+            solver_color_todo,
+            soft_self,
+            retired_pairs,
+        } = source;
+        self.query_dispatcher = query_dispatcher.clone();
+        self.contact_graph.clone_from(contact_graph);
+        self.intersection_graph.clone_from(intersection_graph);
+        self.graph_indices.clone_from(graph_indices);
+        self.update_candidates.clone_from(update_candidates);
+        self.body_solver_color_masks
+            .clone_from(body_solver_color_masks);
+        self.body_qualify_info.clone_from(body_qualify_info);
+        self.awake_body_mask.clone_from(awake_body_mask);
+        self.pair_solver_hints.clone_from(pair_solver_hints);
+        self.solver_contact_graph.clone_from(solver_contact_graph);
+        self.solver_graph_valid = solver_graph_valid.clone();
+        self.solver_graph_epoch = solver_graph_epoch.clone();
+        self.solver_graph_mb_epoch = solver_graph_mb_epoch.clone();
+        self.solver_graph_dirty.clone_from(solver_graph_dirty);
+        self.force_event_pairs.clone_from(force_event_pairs);
+        self.force_event_pos.clone_from(force_event_pos);
+        self.force_event_flagged.clone_from(force_event_flagged);
+        self.force_list_valid = force_list_valid.clone();
+        self.solver_color_todo.clone_from(solver_color_todo);
+        self.soft_self.clone_from(soft_self);
+        self.retired_pairs.clone_from(retired_pairs);
+    }
 }
 
 pub(crate) type ContactManifoldIndex = usize;

@@ -93,7 +93,7 @@ pub struct MultibodyDofCoupling {
 
 /// An articulated body simulated using the reduced-coordinates approach.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Multibody {
     // TODO: serialization: skip the workspace fields.
     pub(crate) links: MultibodyLinkVec,
@@ -141,6 +141,131 @@ pub struct Multibody {
 impl Default for Multibody {
     fn default() -> Self {
         Multibody::new()
+    }
+}
+
+/// Strider patch: `clone_from` copies into the multibody's own buffers where their sizes
+/// match (the worker copies the world every few steps and puts it back to take a step
+/// again: about forty allocations a copy for a hexapod, most of them the body Jacobians),
+/// so it leaves what `clone` would, without allocating. The fields are named in full
+/// below, so a field added upstream fails to compile here rather than go uncopied.
+impl Clone for Multibody {
+    fn clone(&self) -> Self {
+        let Multibody {
+            links,
+            velocities,
+            damping,
+            armature,
+            frictions,
+            accelerations,
+            body_jacobians,
+            augmented_mass,
+            inv_augmented_mass,
+            augmented_mass_indices,
+            acc_augmented_mass,
+            acc_inv_augmented_mass,
+            ndofs,
+            root_is_dynamic,
+            solver_id,
+            self_contacts_enabled,
+            couplings,
+            kinematics_inputs,
+            workspace,
+        } = self;
+        Multibody {
+            links: links.clone(),
+            velocities: velocities.clone(),
+            damping: damping.clone(),
+            armature: armature.clone(),
+            frictions: frictions.clone(),
+            accelerations: accelerations.clone(),
+            body_jacobians: body_jacobians.clone(),
+            augmented_mass: augmented_mass.clone(),
+            inv_augmented_mass: inv_augmented_mass.clone(),
+            augmented_mass_indices: augmented_mass_indices.clone(),
+            acc_augmented_mass: acc_augmented_mass.clone(),
+            acc_inv_augmented_mass: acc_inv_augmented_mass.clone(),
+            ndofs: *ndofs,
+            root_is_dynamic: *root_is_dynamic,
+            solver_id: *solver_id,
+            self_contacts_enabled: *self_contacts_enabled,
+            couplings: couplings.clone(),
+            kinematics_inputs: kinematics_inputs.clone(),
+            workspace: workspace.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let Multibody {
+            links,
+            velocities,
+            damping,
+            armature,
+            frictions,
+            accelerations,
+            body_jacobians,
+            augmented_mass,
+            inv_augmented_mass,
+            augmented_mass_indices,
+            acc_augmented_mass,
+            acc_inv_augmented_mass,
+            ndofs,
+            root_is_dynamic,
+            solver_id,
+            self_contacts_enabled,
+            couplings,
+            kinematics_inputs,
+            workspace,
+        } = source;
+        self.links.0.clone_from(&links.0);
+        copy_matrix(&mut self.velocities, velocities);
+        copy_matrix(&mut self.damping, damping);
+        copy_matrix(&mut self.armature, armature);
+        copy_matrix(&mut self.frictions, frictions);
+        copy_matrix(&mut self.accelerations, accelerations);
+        self.body_jacobians.truncate(body_jacobians.len());
+        for (mine, theirs) in self.body_jacobians.iter_mut().zip(body_jacobians) {
+            copy_matrix(mine, theirs);
+        }
+        let have = self.body_jacobians.len();
+        self.body_jacobians
+            .extend(body_jacobians[have..].iter().cloned());
+        copy_matrix(&mut self.augmented_mass, augmented_mass);
+        // nalgebra's LU has no way in to its buffers: copied as `clone` does.
+        self.inv_augmented_mass = inv_augmented_mass.clone();
+        let IndexSequence {
+            first_to_remove,
+            index_map,
+        } = augmented_mass_indices;
+        self.augmented_mass_indices.first_to_remove = *first_to_remove;
+        self.augmented_mass_indices.index_map.clone_from(index_map);
+        copy_matrix(&mut self.acc_augmented_mass, acc_augmented_mass);
+        self.acc_inv_augmented_mass = acc_inv_augmented_mass.clone();
+        self.ndofs = *ndofs;
+        self.root_is_dynamic = *root_is_dynamic;
+        self.solver_id = *solver_id;
+        self.self_contacts_enabled = *self_contacts_enabled;
+        self.couplings.clone_from(couplings);
+        self.kinematics_inputs.clone_from(kinematics_inputs);
+        // Scratch (`MultibodyWorkspace`'s `Clone`): its sizes are what a copy must have.
+        if !self.workspace.same_sizes(workspace) {
+            self.workspace = workspace.clone();
+        }
+    }
+}
+
+/// Strider patch: `source` copied into `dest`'s buffer when their shapes match, else
+/// cloned: the same values either way.
+fn copy_matrix<R: na::Dim, C: na::Dim, S>(
+    dest: &mut na::Matrix<Real, R, C, S>,
+    source: &na::Matrix<Real, R, C, S>,
+) where
+    S: na::RawStorageMut<Real, R, C> + na::IsContiguous + Clone,
+{
+    if dest.shape() == source.shape() {
+        dest.as_mut_slice().copy_from_slice(source.as_slice());
+    } else {
+        *dest = source.clone();
     }
 }
 
@@ -3359,7 +3484,8 @@ mod test {
     /// Strider patch: a world put back from copies of its sets (as the worker's joint drives
     /// do to take a step again) steps as the world they were copied from, bit for bit, with
     /// its robot on the ground: a copy of a multibody keeps all its state (its workspace is
-    /// scratch and copied as sizes only).
+    /// scratch and copied as sizes only), and so does a copy taken into an older copy's
+    /// buffers (`clone_from`, as the drives take theirs).
     #[cfg(feature = "dim3")]
     #[test]
     fn a_world_put_back_from_copies_steps_the_same() {
@@ -3442,6 +3568,27 @@ mod test {
         world.narrow_phase.clone_from(&copies.5);
         let again = run(&mut world);
         assert!(first == again, "the put-back world stepped otherwise");
+        // Copied again into the first copies' buffers (`clone_from`, which reuses them:
+        // they hold another state, with other contacts), and put back from them.
+        let mut copies = copies;
+        copies.0.clone_from(&world.bodies);
+        copies.1.clone_from(&world.colliders);
+        copies.2.clone_from(&world.multibody_joints);
+        copies.3.clone_from(&world.islands);
+        copies.4.clone_from(&world.broad_phase);
+        copies.5.clone_from(&world.narrow_phase);
+        let third = run(&mut world);
+        world.bodies.clone_from(&copies.0);
+        world.colliders.clone_from(&copies.1);
+        world.multibody_joints.clone_from(&copies.2);
+        world.islands.clone_from(&copies.3);
+        world.broad_phase.clone_from(&copies.4);
+        world.narrow_phase.clone_from(&copies.5);
+        assert!(
+            third == run(&mut world),
+            "the world put back from copies taken into old ones stepped otherwise"
+        );
+        assert!(first != third, "the copies were taken of the same state");
     }
 
     /// Strider patch: the body Jacobians computed over each link's nonzero columns have the

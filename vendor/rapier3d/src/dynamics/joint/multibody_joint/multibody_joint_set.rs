@@ -52,7 +52,7 @@ impl Default for MultibodyLinkId {
 #[derive(Default)]
 /// A set of rigid bodies that can be handled by a physics pipeline.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct MultibodyJointSet {
     pub(crate) multibodies: Arena<Multibody>, // NOTE: a Slab would be sufficient.
     pub(crate) rb2mb: Coarena<MultibodyLinkId>,
@@ -73,6 +73,51 @@ pub struct MultibodyJointSet {
     /// solver contact graph detect that its two-body vs. generic (multibody)
     /// manifold classification may be stale and must be rebuilt.
     pub(crate) topology_epoch: u32,
+}
+
+/// Strider patch: `clone_from` field by field, each into its own buffers (the multibodies'
+/// included, `Multibody::clone_from`). Every field is named, so one added upstream fails
+/// to compile here rather than go uncopied.
+impl Clone for MultibodyJointSet {
+    fn clone(&self) -> Self {
+        let MultibodyJointSet {
+            multibodies,
+            rb2mb,
+            connectivity_graph,
+            to_wake_up,
+            to_join,
+            island_chain_events,
+            topology_epoch,
+        } = self;
+        MultibodyJointSet {
+            multibodies: multibodies.clone(),
+            rb2mb: rb2mb.clone(),
+            connectivity_graph: connectivity_graph.clone(),
+            to_wake_up: to_wake_up.clone(),
+            to_join: to_join.clone(),
+            island_chain_events: island_chain_events.clone(),
+            topology_epoch: *topology_epoch,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let MultibodyJointSet {
+            multibodies,
+            rb2mb,
+            connectivity_graph,
+            to_wake_up,
+            to_join,
+            island_chain_events,
+            topology_epoch,
+        } = source;
+        self.multibodies.clone_from(multibodies);
+        self.rb2mb.clone_from(rb2mb);
+        self.connectivity_graph.clone_from(connectivity_graph);
+        self.to_wake_up.clone_from(to_wake_up);
+        self.to_join.clone_from(to_join);
+        self.island_chain_events.clone_from(island_chain_events);
+        self.topology_epoch = *topology_epoch;
+    }
 }
 
 impl MultibodyJointSet {

@@ -13,7 +13,8 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
     /// apart: it runs before `update_mass_matrix`, and not always with it). Scratch: valid
     /// only within `update_body_jacobians`, which computes them first (forward kinematics
-    /// may skip it, and a copy of the workspace has none).
+    /// may skip it, a copy of the workspace has none, and one taken into another's buffers
+    /// has that one's).
     pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: `M J` for one link and each of the two mass matrices, reused across
     /// links and steps.
@@ -34,7 +35,9 @@ pub(crate) struct MultibodyWorkspace {
 /// Strider patch: a copy has the workspace's sizes and none of its contents, which every
 /// step writes before it reads them (the buffers are scratch). A multibody is copied
 /// every few steps to take a step again (the worker's joint drives); copying the buffers,
-/// about seventy allocations for a hexapod, was most of that copy's cost.
+/// about seventy allocations for a hexapod, was most of that copy's cost. (A multibody
+/// copied into another's buffers, `Multibody::clone_from`, keeps that one's workspace
+/// where the sizes match: stale contents, written before they are read all the same.)
 impl Clone for MultibodyWorkspace {
     fn clone(&self) -> Self {
         let mut copy = Self::new();
@@ -57,6 +60,12 @@ impl MultibodyWorkspace {
             coriolis_dt: Vec::new(),
             kinematics_inputs: Vec::new(),
         }
+    }
+
+    /// Strider patch: whether a copy of `other` would have this workspace's sizes (what
+    /// `Clone` gives a copy; the contents are scratch).
+    pub fn same_sizes(&self, other: &Self) -> bool {
+        self.accs.len() == other.accs.len() && self.ndofs_vec.len() == other.ndofs_vec.len()
     }
 
     /// Resize the workspace so it is enough for `nlinks` links.
