@@ -51,5 +51,7 @@ def read_urdf(path):
 
 
 def read_start_pose(path):
+    """The start pose as a dict: `base_xyz` (m), `base_rpy` (rad) and `joints`, each
+    joint's angle (rad) by name."""
     with open(path) as f:
         return json.load(f)

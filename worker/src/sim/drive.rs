@@ -29,9 +29,9 @@
 //! (the vendored rapier's `clone_from`), not allocated afresh. A robot whose velocities or
 //! poses changed between steps (the trial's shove), or a step of another length, is
 //! copied afresh: the state a step finds is compared with the one the last step left.
-//! Any other change to the world
-//! between steps (forces on its bodies, other bodies, joint settings besides the drives)
-//! must be followed by [`DrivenStepper::world_changed`], or a retake would undo it.
+//! Any other change to the world between steps (forces on its bodies, other bodies, joint
+//! settings besides the drives) must be followed by [`DrivenStepper::world_changed`], or a
+//! retake would undo it.
 
 use super::world::{RobotWorld, HINGE_DOF_AXIS};
 use rapier3d::prelude::*;
