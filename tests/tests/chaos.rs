@@ -101,6 +101,7 @@ fn lease_and_drop(rt: &tokio::runtime::Runtime, url: &str) -> usize {
                 slots: 64,
                 build: strider_common::build_id(),
                 replaces: 0,
+                reference_trial: strider_worker::reference_trial::digest(),
             })),
         })
         .await
@@ -259,6 +260,7 @@ fn nan_fitness(rt: &tokio::runtime::Runtime, url: &str) -> &'static str {
                 slots: 1,
                 build: strider_common::build_id(),
                 replaces: 0,
+                reference_trial: strider_worker::reference_trial::digest(),
             })),
         })
         .await

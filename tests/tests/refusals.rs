@@ -44,6 +44,7 @@ fn hello_replacing(version: u32, replaces: u64) -> WorkerMessage {
             slots: 4,
             build: strider_common::build_id(),
             replaces,
+            reference_trial: strider_worker::reference_trial::digest(),
         })),
     }
 }
@@ -83,6 +84,7 @@ async fn refused_as_another_build(channel: &Channel, name: &str, build: &str) {
             slots: 4,
             build: build.into(),
             replaces: 0,
+            reference_trial: strider_worker::reference_trial::digest(),
         })),
     };
     let s = match open(channel, hello).await {
@@ -349,6 +351,42 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
         let theirs = ours.replacen(&format!("commit {ours_commit},"), "commit 0123456789ab,", 1);
         assert!(ours_commit != "0123456789ab" && theirs != ours);
         refused_as_another_build(&channel, "a worker of another commit", &theirs).await;
+
+        // The same build on a node that steps the robot differently (another C library's
+        // `sin` and `cos`, which the build identity cannot name): its reference trial's
+        // digest is not the session's first worker's. Refused, both digests and that
+        // worker named; and one that sent no digest. Then the right digest still admits.
+        let ours_digest = strider_worker::reference_trial::digest();
+        let mut first = open(&channel, hello(1)).await.unwrap();
+        assert!(matches!(
+            first.rx.message().await.unwrap().unwrap().kind,
+            Some(coordinator_message::Kind::Welcome(_))
+        ));
+        for (digest, wanted) in [
+            (ours_digest ^ 1, format!("{:016x}", ours_digest ^ 1)),
+            (0, "none sent".to_string()),
+        ] {
+            let mut other = hello(1);
+            if let Some(worker_message::Kind::Hello(h)) = &mut other.kind {
+                h.worker_name = "a node with another libm".into();
+                h.reference_trial = digest;
+            }
+            let s = match open(&channel, other).await {
+                Err(s) => s,
+                Ok(mut st) => st.rx.message().await.unwrap_err(),
+            };
+            assert_eq!(s.code(), Code::FailedPrecondition, "{}", s.message());
+            assert!(s.message().contains(&wanted), "{}", s.message());
+            if digest != 0 {
+                assert!(
+                    s.message().contains(&format!("{ours_digest:016x}"))
+                        && s.message().contains("raw test client"),
+                    "{}",
+                    s.message()
+                );
+            }
+        }
+        drop(first);
 
         // A message over the size limit (1 MiB): refused with the reason, not an OK end.
         let (big, b) = assigned(&channel).await;

@@ -175,6 +175,11 @@ pub async fn work(
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
     let pool = SimPool::with(opts.threads, opts.evaluator.function())
         .map_err(|e| WorkerError::Refused(format!("starting simulation threads: {e}")))?;
+    // The reference trial (about 240 physics steps), once, off the async threads: each
+    // Hello carries its digest.
+    tokio::task::spawn_blocking(crate::reference_trial::digest)
+        .await
+        .map_err(|e| WorkerError::Refused(format!("the reference trial failed: {e}")))?;
     let first_backoff = Duration::from_millis(100);
     let mut backoff = first_backoff;
     // When a coordinator last had this worker connected (or it started).
@@ -321,6 +326,7 @@ async fn session(
         slots: slots as u32,
         build: opts.build.clone(),
         replaces: *last_session,
+        reference_trial: crate::reference_trial::digest(),
     })))
     .await
     .expect("the channel is open");

@@ -9,6 +9,7 @@ pub mod evaluate;
 pub mod fidelity;
 pub mod help;
 pub mod pool;
+pub mod reference_trial;
 pub mod replay;
 pub mod sim;
 pub mod survey;

@@ -11,6 +11,7 @@ pub mod incoming;
 pub mod local;
 pub mod metrics;
 pub mod pace;
+pub mod reference;
 pub mod server;
 pub mod sessions;
 pub mod worker_api;
@@ -124,6 +125,8 @@ pub struct Shared {
     next_worker: AtomicU64,
     /// Live worker sessions, so a worker that connects again ends its last one.
     sessions: sessions::Sessions,
+    /// The digest of the session's first worker's reference trial, which the others match.
+    reference: reference::ReferenceTrial,
     throughput: Mutex<Throughput>,
     started: Instant,
     /// The time run, stops left out: rates and the time left are measured on it.

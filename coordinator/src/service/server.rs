@@ -261,6 +261,7 @@ async fn start_scheduler(
         slots: AtomicUsize::new(0),
         next_worker: AtomicU64::new(next_worker.0),
         sessions: Default::default(),
+        reference: Default::default(),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
         clock: Mutex::new(super::clock::RunningClock::new(Instant::now())),
@@ -369,10 +370,9 @@ async fn wind_down(
         tracing::warn!("closing the worker sessions at exit: {e}");
     }
     // A clean exit leaves the database file whole by itself: the write-ahead log copied
-    // in and emptied, so the .db alone can be copied or moved.
-    // The writer's own checkpointer (a passive checkpoint every 100 ms) or a session's
-    // last read can hold the log for a moment: a busy answer is tried again, for up to a
-    // second, before the exit says the -wal file stays.
+    // in and emptied, so the .db alone can be copied or moved. The writer's checkpointer
+    // (passive, every 100 ms) or a session's last read can hold the log for a moment: a
+    // busy answer is tried again, for up to a second, before the exit says -wal stays.
     for attempt in 1..=EXIT_CHECKPOINT_TRIES {
         match shared.db.checkpoint(true).await {
             Ok(Some(_)) => break,

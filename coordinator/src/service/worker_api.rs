@@ -82,6 +82,11 @@ impl WorkerService for WorkerApi {
                 hello.slots
             )));
         }
+        // Last: a worker refused for its build, protocol or slots sets no digest.
+        self.shared
+            .reference
+            .admit(hello.reference_trial, &hello.worker_name)
+            .map_err(Status::failed_precondition)?;
         let shared = self.shared.clone();
         let id = WorkerId(shared.next_worker.fetch_add(1, Ordering::Relaxed));
         let lease_seconds = shared.with(false, |s| s.lease_duration().as_secs_f64());
