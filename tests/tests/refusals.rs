@@ -1,5 +1,6 @@
 //! Bad callers get a clear gRPC error and change nothing: no secret or a wrong one, another
-//! protocol version, a worker of another CPU arithmetic, architecture or commit, a NaN
+//! protocol version, a worker of another CPU arithmetic, architecture or commit, or whose
+//! node steps the robot differently (its reference trial), a NaN
 //! fitness, a message over the size limit, a candidate nobody leased them, another run's
 //! candidate. A raw client speaks the protocol here, as a broken or hostile worker would.
 
@@ -15,7 +16,7 @@ use strider_proto::v1::{
     worker_service_client::WorkerServiceClient, CoordinatorMessage, WorkerMessage,
 };
 use strider_tests::coordinator::{serve_command, start_serving};
-use strider_tests::{binary, temp_dir, Process};
+use strider_tests::{binary, skip_without, temp_dir, which, workspace_root, Process};
 use strider_worker::evaluate::evaluate;
 use tokio::sync::mpsc;
 use tonic::transport::Channel;
@@ -701,5 +702,63 @@ fn a_worker_that_connects_again_ends_its_last_session_at_once() {
         "{left}\n{}",
         coordinator.log()
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A worker on a node whose C library rounds `sin` and `cos` otherwise (glibc's, one ulp
+/// up, preloaded: `tests/fixtures/other-trigonometry.c`) has the coordinator's build
+/// identity, but its reference trial gives another digest: it is refused, and exits
+/// saying why, while the session's first worker stays. (One ulp of trigonometry moves
+/// MAX's 5-s trial from 2.7007 to 2.7003 m: a run on mixed nodes would not be the same
+/// bits.)
+#[test]
+fn a_worker_whose_trigonometry_differs_is_refused_by_its_reference_trial() {
+    let Some(cc) = which("cc") else {
+        return skip_without("cc, to build the libm shim");
+    };
+    let (dir, _db, mut coordinator, url) = serving("reference-trial");
+    let shim = dir.join("libother-trigonometry.so");
+    let source = workspace_root().join("tests/fixtures/other-trigonometry.c");
+    let built = Command::new(cc)
+        .args(["-shared", "-fPIC", "-O2", "-fno-builtin", "-o"])
+        .arg(&shim)
+        .arg(&source)
+        .args(["-ldl", "-lm"])
+        .output()
+        .unwrap();
+    assert!(
+        built.status.success(),
+        "{}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    // The first worker, this process's arithmetic: it sets the session's digest.
+    let first = rt.block_on(async {
+        let channel = channel(&url).await;
+        let mut first = open(&channel, hello(1)).await.unwrap();
+        assert!(matches!(
+            first.rx.message().await.unwrap().unwrap().kind,
+            Some(coordinator_message::Kind::Welcome(_))
+        ));
+        first
+    });
+    let mut cmd = Command::new(binary("strider-worker"));
+    cmd.args(["--connect", &url, "--threads", "1"])
+        .args(["--token-file", dir.join("secret").to_str().unwrap()])
+        .env("LD_PRELOAD", &shim);
+    let mut other = Process::spawn("other-trigonometry", cmd);
+    let status = other.wait_exit(Duration::from_secs(120));
+    let log = other.log();
+    assert!(!status.success(), "{log}");
+    assert!(
+        log.contains("refused this worker: reference trial mismatch")
+            && log.contains("raw test client"),
+        "{log}"
+    );
+    let served = coordinator.log();
+    assert_eq!(served.matches("worker connected").count(), 1, "{served}");
+    drop(first);
+    coordinator.signal(libc::SIGTERM);
+    assert!(coordinator.wait_exit(Duration::from_secs(60)).success());
     std::fs::remove_dir_all(&dir).unwrap();
 }
