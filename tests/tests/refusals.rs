@@ -353,10 +353,10 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
         assert!(ours_commit != "0123456789ab" && theirs != ours);
         refused_as_another_build(&channel, "a worker of another commit", &theirs).await;
 
-        // The same build on a node that steps the robot differently (another C library's
-        // `sin` and `cos`, which the build identity cannot name): its reference trial's
-        // digest is not the session's first worker's. Refused, both digests and that
-        // worker named; and one that sent no digest. Then the right digest still admits.
+        // The same build on a node that computes differently (another C library's `sin`,
+        // which the build identity cannot name): its reference trial's digest is not the
+        // coordinator's own. Refused, both digests named; and one that sent no digest. A
+        // client with this process's digest (the same build on this machine) is admitted.
         let ours_digest = strider_worker::reference_trial::digest();
         let mut first = open(&channel, hello(1)).await.unwrap();
         assert!(matches!(
@@ -380,8 +380,8 @@ fn bad_requests_are_refused_with_a_clear_status_and_change_nothing() {
             assert!(s.message().contains(&wanted), "{}", s.message());
             if digest != 0 {
                 assert!(
-                    s.message().contains(&format!("{ours_digest:016x}"))
-                        && s.message().contains("raw test client"),
+                    s.message()
+                        .contains(&format!("this coordinator's {ours_digest:016x}")),
                     "{}",
                     s.message()
                 );
@@ -707,12 +707,13 @@ fn a_worker_that_connects_again_ends_its_last_session_at_once() {
 
 /// A worker on a node whose C library rounds `sin` and `cos` otherwise (glibc's, one ulp
 /// up, preloaded: `tests/fixtures/other-trigonometry.c`) has the coordinator's build
-/// identity, but its reference trial gives another digest: it is refused, and exits
-/// saying why, while the session's first worker stays. (One ulp of trigonometry moves
-/// MAX's 5-s trial from 2.7007 to 2.7003 m: a run on mixed nodes would not be the same
-/// bits.)
+/// identity, but its reference trial gives another digest: it is refused and exits saying
+/// why. The same binary without the shim is admitted and runs the experiment to its end.
+/// (One ulp of trigonometry moves MAX's 5-s trial from 2.7007 to 2.7003 m: a run on mixed
+/// nodes would not be the same bits.) LD_PRELOAD is the GNU dynamic loader's.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[test]
-fn a_worker_whose_trigonometry_differs_is_refused_by_its_reference_trial() {
+fn a_worker_whose_libm_differs_is_refused_by_its_reference_trial() {
     let Some(cc) = which("cc") else {
         return skip_without("cc, to build the libm shim");
     };
@@ -731,34 +732,35 @@ fn a_worker_whose_trigonometry_differs_is_refused_by_its_reference_trial() {
         "{}",
         String::from_utf8_lossy(&built.stderr)
     );
-    let rt = tokio::runtime::Runtime::new().unwrap();
-    // The first worker, this process's arithmetic: it sets the session's digest.
-    let first = rt.block_on(async {
-        let channel = channel(&url).await;
-        let mut first = open(&channel, hello(1)).await.unwrap();
-        assert!(matches!(
-            first.rx.message().await.unwrap().unwrap().kind,
-            Some(coordinator_message::Kind::Welcome(_))
-        ));
-        first
-    });
-    let mut cmd = Command::new(binary("strider-worker"));
-    cmd.args(["--connect", &url, "--threads", "1"])
-        .args(["--token-file", dir.join("secret").to_str().unwrap()])
-        .env("LD_PRELOAD", &shim);
-    let mut other = Process::spawn("other-trigonometry", cmd);
+    let worker = || {
+        let mut cmd = Command::new(binary("strider-worker"));
+        cmd.args(["--connect", &url, "--threads", "1"])
+            .args(["--token-file", dir.join("secret").to_str().unwrap()]);
+        cmd
+    };
+    let mut shimmed = worker();
+    shimmed.env("LD_PRELOAD", &shim);
+    let mut other = Process::spawn("other-trigonometry", shimmed);
     let status = other.wait_exit(Duration::from_secs(120));
     let log = other.log();
     assert!(!status.success(), "{log}");
     assert!(
         log.contains("refused this worker: reference trial mismatch")
-            && log.contains("raw test client"),
+            && log.contains("this coordinator's"),
         "{log}"
+    );
+    let control = Process::spawn("worker", worker());
+    assert!(
+        coordinator.wait_exit(Duration::from_secs(300)).success(),
+        "{}",
+        coordinator.log()
     );
     let served = coordinator.log();
     assert_eq!(served.matches("worker connected").count(), 1, "{served}");
-    drop(first);
-    coordinator.signal(libc::SIGTERM);
-    assert!(coordinator.wait_exit(Duration::from_secs(60)).success());
+    assert!(
+        served.contains("worker refused: reference trial mismatch"),
+        "{served}"
+    );
+    drop(control);
     std::fs::remove_dir_all(&dir).unwrap();
 }

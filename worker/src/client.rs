@@ -142,6 +142,9 @@ pub enum WorkerError {
         /// What is wrong.
         problem: String,
     },
+    /// The reference trial, run before connecting, panicked (a bug, not a condition).
+    #[error("the reference trial failed: {0}")]
+    ReferenceTrial(String),
 }
 
 /// Results this process has handed to its streams, over all its sessions: said when it
@@ -175,11 +178,11 @@ pub async fn work(
     let cores = Arc::new(Semaphore::new(opts.threads.get()));
     let pool = SimPool::with(opts.threads, opts.evaluator.function())
         .map_err(|e| WorkerError::Refused(format!("starting simulation threads: {e}")))?;
-    // The reference trial (about 240 physics steps), once, off the async threads: each
+    // The reference trial (about 480 physics steps), once, off the async threads: each
     // Hello carries its digest.
     tokio::task::spawn_blocking(crate::reference_trial::digest)
         .await
-        .map_err(|e| WorkerError::Refused(format!("the reference trial failed: {e}")))?;
+        .map_err(|e| WorkerError::ReferenceTrial(e.to_string()))?;
     let first_backoff = Duration::from_millis(100);
     let mut backoff = first_backoff;
     // When a coordinator last had this worker connected (or it started).

@@ -125,7 +125,8 @@ pub struct Shared {
     next_worker: AtomicU64,
     /// Live worker sessions, so a worker that connects again ends its last one.
     sessions: sessions::Sessions,
-    /// The digest of the session's first worker's reference trial, which the others match.
+    /// The reference trial's digest that workers must match (this coordinator's own, or
+    /// built without the simulator, the session's first worker's).
     reference: reference::ReferenceTrial,
     throughput: Mutex<Throughput>,
     started: Instant,

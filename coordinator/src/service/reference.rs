@@ -1,26 +1,47 @@
-//! Which workers step the robot as the session's first one did. Every worker runs a short
+//! Which workers step the robot as this coordinator does. Every worker runs a short
 //! reference trial when it starts and sends its digest with its Hello
-//! (`strider_worker::reference_trial`); the first worker of a session sets the digest the
-//! others must match. The build identity already names the commit and what can be seen of
-//! the CPU's arithmetic; this catches what cannot: another C library's `sin` and `cos`, or
-//! any other difference a node makes to the bits (docs/rapier.md). A worker refused here
-//! would have produced results a run on the first worker's nodes would not: the run would
-//! no longer be the same bits whatever the workers.
+//! (`strider_worker::reference_trial`: MAX for a second, and the C library's functions on
+//! fixed arguments). A coordinator built with the simulator runs it too, and its own
+//! digest is the reference, as its own CPU is for the build identity's arithmetic: the same
+//! on every start on the same kind of node, so a run resumed there keeps its bits. Built
+//! without it, the session's first worker sets the digest the others must match. The build
+//! identity names the commit and what can be seen of the CPU; this catches what cannot,
+//! another C library's `sin` or `exp`. A worker refused here would have given results that
+//! a run on the reference's nodes would not: the run would no longer be the same bits
+//! whatever the workers.
 
 use std::sync::Mutex;
 
-/// The session's reference digest, once a worker has set it.
-#[derive(Default)]
-pub struct ReferenceTrial(Mutex<Option<First>>);
+/// The digest workers must match, once known.
+pub struct ReferenceTrial(Mutex<Option<Reference>>);
 
-struct First {
+struct Reference {
     digest: u64,
-    worker: String,
+    /// Whose digest it is, for the refusal: "this coordinator's" or the first worker's.
+    whose: String,
 }
 
 impl ReferenceTrial {
+    /// This coordinator's reference: its own reference trial's digest where it has the
+    /// simulator (about 480 physics steps, run here once), else none until a worker's.
+    pub fn of_this_coordinator() -> Self {
+        #[cfg(feature = "simulator")]
+        let own = Some(strider_worker::reference_trial::digest());
+        #[cfg(not(feature = "simulator"))]
+        let own = None;
+        Self::new(own)
+    }
+
+    /// A reference set to `own` (`None`: the first worker admitted sets it).
+    pub fn new(own: Option<u64>) -> Self {
+        Self(Mutex::new(own.map(|digest| Reference {
+            digest,
+            whose: "this coordinator's".into(),
+        })))
+    }
+
     /// Admits a worker named `worker` whose reference trial gave `digest` (0: it sent
-    /// none), or says why not. The first one admitted sets the session's digest.
+    /// none), or says why not.
     pub fn admit(&self, digest: u64, worker: &str) -> Result<(), String> {
         if digest == 0 {
             return Err(
@@ -28,19 +49,19 @@ impl ReferenceTrial {
                     .into(),
             );
         }
-        let mut first = self.0.lock().expect("no panic while admitting");
-        match &*first {
+        let mut reference = self.0.lock().expect("no panic while admitting");
+        match &*reference {
             None => {
-                *first = Some(First {
+                *reference = Some(Reference {
                     digest,
-                    worker: worker.to_string(),
+                    whose: format!("the session's first worker's ({worker:?})"),
                 });
                 Ok(())
             }
-            Some(f) if f.digest == digest => Ok(()),
-            Some(f) => Err(format!(
-                "reference trial mismatch: this worker's reference trial (MAX walking for one second) gives digest {digest:016x}, the session's first worker's ({:?}) {:016x}: the same build steps the robot differently on this node (another C library, or a CPU whose arithmetic the build identity does not tell apart), so its trials would not be the run's bits; run the workers on nodes of one kind, or from one container image (docs/rapier.md, \"The same binary on another CPU\")",
-                f.worker, f.digest
+            Some(r) if r.digest == digest => Ok(()),
+            Some(r) => Err(format!(
+                "reference trial mismatch: this worker's reference trial (MAX walking for a second, and the C library's functions on fixed arguments) gives digest {digest:016x}, {} {:016x}: the same build computes differently on the two nodes (another C library, or a CPU whose arithmetic the build identity does not tell apart), so this worker's trials would not be the run's bits; run the coordinator and the workers on nodes of one kind, or from one container image (docs/rapier.md, \"The same binary on another CPU\")",
+                r.whose, r.digest
             )),
         }
     }
@@ -51,8 +72,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_first_digest_sets_the_sessions_and_others_must_match_it() {
-        let r = ReferenceTrial::default();
+    fn without_its_own_the_first_digest_sets_the_reference() {
+        let r = ReferenceTrial::new(None);
         assert!(r.admit(0, "silent").unwrap_err().contains("none sent"));
         r.admit(0xabc, "node-a").unwrap();
         r.admit(0xabc, "node-b").unwrap();
@@ -60,10 +81,30 @@ mod tests {
         assert!(
             e.contains("0000000000000def")
                 && e.contains("0000000000000abc")
-                && e.contains("node-a"),
+                && e.contains("first worker's (\"node-a\")"),
             "{e}"
         );
         // A refused worker changes nothing: the first worker's digest still admits.
         r.admit(0xabc, "node-d").unwrap();
+    }
+
+    #[test]
+    fn with_its_own_only_that_digest_is_admitted() {
+        let r = ReferenceTrial::new(Some(0xabc));
+        let e = r.admit(0xdef, "node-a").unwrap_err();
+        assert!(e.contains("this coordinator's 0000000000000abc"), "{e}");
+        r.admit(0xabc, "node-b").unwrap();
+        assert!(r.admit(0, "silent").is_err());
+    }
+
+    #[cfg(feature = "simulator")]
+    #[test]
+    fn a_coordinator_with_the_simulator_admits_its_own_build_on_this_machine() {
+        let r = ReferenceTrial::of_this_coordinator();
+        r.admit(strider_worker::reference_trial::digest(), "local")
+            .unwrap();
+        assert!(r
+            .admit(strider_worker::reference_trial::digest() ^ 1, "other")
+            .is_err());
     }
 }

@@ -261,7 +261,7 @@ async fn start_scheduler(
         slots: AtomicUsize::new(0),
         next_worker: AtomicU64::new(next_worker.0),
         sessions: Default::default(),
-        reference: Default::default(),
+        reference: super::reference::ReferenceTrial::of_this_coordinator(),
         throughput: Mutex::new(Throughput::default()),
         started: Instant::now(),
         clock: Mutex::new(super::clock::RunningClock::new(Instant::now())),

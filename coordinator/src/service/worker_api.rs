@@ -83,10 +83,14 @@ impl WorkerService for WorkerApi {
             )));
         }
         // Last: a worker refused for its build, protocol or slots sets no digest.
-        self.shared
+        if let Err(why) = self
+            .shared
             .reference
             .admit(hello.reference_trial, &hello.worker_name)
-            .map_err(Status::failed_precondition)?;
+        {
+            tracing::warn!(name = %hello.worker_name, "worker refused: {why}");
+            return Err(Status::failed_precondition(why));
+        }
         let shared = self.shared.clone();
         let id = WorkerId(shared.next_worker.fetch_add(1, Ordering::Relaxed));
         let lease_seconds = shared.with(false, |s| s.lease_duration().as_secs_f64());
