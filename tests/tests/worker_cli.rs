@@ -1,4 +1,5 @@
-//! `strider-worker eval`, `random` and `survey` as a user runs them.
+//! `strider-worker eval`, `random`, `survey`, `reference-trial` and `--version` as a user
+//! runs them.
 
 use strider_tests::run;
 
@@ -272,4 +273,19 @@ fn version_gives_the_whole_build_identity() {
             assert_eq!(stdout(&out), format!("{binary} {tail}\n"), "{flag}");
         }
     }
+}
+
+#[test]
+fn reference_trial_prints_the_digest_a_coordinator_compares() {
+    // The digest this build's Hello carries on this machine, and the build identity: what
+    // a user compares across partitions before a run (docs/operations.md).
+    let out = run("strider-worker", &["reference-trial"]);
+    assert_eq!(
+        stdout(&out),
+        format!(
+            "{:016x}  {}\n",
+            strider_worker::reference_trial::digest(),
+            strider_common::build_id()
+        )
+    );
 }

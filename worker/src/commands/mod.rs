@@ -55,6 +55,10 @@ pub enum Command {
     /// Evaluate designs at several physics steps and stay-up windows: does the verdict
     /// depend on the step?
     Fidelity(fidelity::FidelityArgs),
+    /// Print this machine's reference-trial digest, which a coordinator compares with its
+    /// own for every worker, and the build identity: run it on each kind of node (`srun
+    /// strider-worker reference-trial`) to see before a run whether they compute alike.
+    ReferenceTrial,
 }
 
 /// Runs the command, or works for a coordinator when there is none.
@@ -71,6 +75,14 @@ pub fn execute(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Random(args)) => random::execute(args),
         Some(Command::Survey(args)) => survey::execute(args),
         Some(Command::Fidelity(args)) => fidelity::execute(args),
+        Some(Command::ReferenceTrial) => {
+            outln!(
+                "{:016x}  {}",
+                crate::reference_trial::digest(),
+                strider_common::build_id()
+            );
+            Ok(())
+        }
     }
 }
 
