@@ -9,6 +9,7 @@ pub mod contact;
 pub mod drawing;
 pub mod experiment;
 pub mod features;
+pub mod fnv;
 pub mod gait;
 pub mod genome;
 pub mod hull;

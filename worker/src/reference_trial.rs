@@ -9,8 +9,9 @@
 
 use crate::evaluate::evaluate;
 use std::sync::OnceLock;
+use strider_common::fnv::Fnv1a;
 use strider_common::rng::CandidateSeed;
-use strider_common::{reference, EvalContext, Scheme};
+use strider_common::{reference, EvalContext, Outcome, Scheme};
 
 /// Simulated seconds of the reference trial: long enough for every part of a step (the
 /// gait's `sin` and `cos`, contacts, the drives' limits and retakes, the fall checks) to
@@ -26,22 +27,27 @@ pub fn digest() -> u64 {
 }
 
 fn compute() -> u64 {
+    // serde_json writes each f64 in the shortest form that reads back to the same bits,
+    // so the text differs exactly when some figure of the outcome does.
+    let text = serde_json::to_string(&reference_outcome()).expect("an outcome serialises");
+    let mut h = Fnv1a::default();
+    h.bytes(text.as_bytes());
+    for v in libm_probe() {
+        h.bytes(&v.to_le_bytes());
+    }
+    h.value().max(1)
+}
+
+/// MAX's reference trial.
+fn reference_outcome() -> Outcome {
     let mut ctx = EvalContext::paper();
     ctx.settings.trial_seconds = SECONDS;
-    let outcome = evaluate(
+    evaluate(
         &ctx,
         &reference::max(),
         Scheme::Static,
         CandidateSeed::new(0, 0),
-    );
-    // serde_json writes each f64 in the shortest form that reads back to the same bits,
-    // so the text differs exactly when some figure of the outcome does.
-    let text = serde_json::to_string(&outcome).expect("an outcome serialises");
-    let mut bytes = text.into_bytes();
-    for v in libm_probe() {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    fnv1a(FNV_OFFSET, &bytes).max(1)
+    )
 }
 
 /// The bits of every C-library function the worker imports (`nm -D strider-worker`: the
@@ -95,36 +101,13 @@ fn libm_probe() -> Vec<u64> {
     out
 }
 
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-
-/// FNV-1a, 64 bits: stable across builds and platforms, which `std`'s hasher is not.
-fn fnv1a(start: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(start, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn fnv1a_matches_its_published_values() {
-        // The FNV reference values (draft-eastlake-fnv): "" and "a".
-        assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf2_9ce4_8422_2325);
-        assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63_dc4c_8601_ec8c);
-    }
-
-    #[test]
     fn the_digest_is_of_a_trial_that_ran() {
-        let mut ctx = EvalContext::paper();
-        ctx.settings.trial_seconds = SECONDS;
-        let outcome = evaluate(
-            &ctx,
-            &reference::max(),
-            Scheme::Static,
-            CandidateSeed::new(0, 0),
-        );
+        let outcome = reference_outcome();
         // A trial that ran has stats (an outcome settled before the trial would digest the
         // same on every machine and catch nothing).
         let stats = outcome.stats().expect("MAX's reference trial runs");

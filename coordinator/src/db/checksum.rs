@@ -13,6 +13,7 @@ use super::rows::column;
 use super::DbError;
 use crate::qd::library::GenerationStats;
 use sqlx::sqlite::SqliteRow;
+use strider_common::fnv::Fnv1a;
 
 /// The columns of a candidate row the checksum covers, as stored.
 #[derive(Clone, Copy, Debug)]
@@ -108,7 +109,7 @@ impl<'a> CandidateColumns<'a> {
         h.field(self.shortfall.unwrap_or("").as_bytes());
         h.field(real(self.standing).as_bytes());
         h.field(self.infeasible_placement.unwrap_or("").as_bytes());
-        h.0 as i64
+        h.value() as i64
     }
 }
 
@@ -206,7 +207,7 @@ impl GenerationColumns {
         ] {
             h.field(v.to_string().as_bytes());
         }
-        h.0 as i64
+        h.value() as i64
     }
 }
 
@@ -216,7 +217,7 @@ pub fn experiment_checksum(name: &str, definition: &str, build: &str, created_at
     for v in [name, definition, build, created_at] {
         h.field(v.as_bytes());
     }
-    h.0 as i64
+    h.value() as i64
 }
 
 /// The checksum of a `pending` row: its columns in the table's order, as
@@ -245,7 +246,7 @@ pub fn pending_checksum(
     );
     h.field(outcome.unwrap_or("-").as_bytes());
     h.field(real(seconds).as_bytes());
-    h.0 as i64
+    h.value() as i64
 }
 
 impl TryFrom<GenerationColumns> for (u32, u64, GenerationStats) {
@@ -288,29 +289,6 @@ impl TryFrom<GenerationColumns> for (u32, u64, GenerationStats) {
 /// A REAL by its bits (`-` for NULL), so that no rounding of a printed figure hides a change.
 fn real(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{:016x}", v.to_bits()))
-}
-
-struct Fnv1a(u64);
-
-impl Default for Fnv1a {
-    fn default() -> Self {
-        Fnv1a(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv1a {
-    fn byte(&mut self, b: u8) {
-        self.0 ^= u64::from(b);
-        self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-
-    /// `bytes` then a unit separator, so that moving a byte between fields changes the sum.
-    fn field(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.byte(b);
-        }
-        self.byte(0x1f);
-    }
 }
 
 /// The pending row's checksum: the writer stores it, the reader checks it.
@@ -441,15 +419,6 @@ mod tests {
         ] {
             assert_ne!(other, base);
         }
-    }
-
-    #[test]
-    fn fnv1a_matches_its_reference_values() {
-        // The published FNV-1a 64 test vectors: "" and "a".
-        assert_eq!(Fnv1a::default().0, 0xcbf2_9ce4_8422_2325);
-        let mut h = Fnv1a::default();
-        h.byte(b'a');
-        assert_eq!(h.0, 0xaf63_dc4c_8601_ec8c);
     }
 
     #[test]
