@@ -107,6 +107,27 @@ pub fn which(program: &str) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// A C library shim that rounds `sin` and `cos` one ulp up
+/// (`tests/fixtures/other-trigonometry.c`), built in `dir` with `cc`, for `LD_PRELOAD`: a
+/// process that loads it computes as on a node with another C library. `None` without `cc`.
+pub fn other_trigonometry_shim(dir: &std::path::Path) -> Option<PathBuf> {
+    let cc = which("cc")?;
+    let shim = dir.join("libother-trigonometry.so");
+    let built = Command::new(cc)
+        .args(["-shared", "-fPIC", "-O2", "-fno-builtin", "-o"])
+        .arg(&shim)
+        .arg(workspace_root().join("tests/fixtures/other-trigonometry.c"))
+        .args(["-ldl", "-lm"])
+        .output()
+        .expect("running cc");
+    assert!(
+        built.status.success(),
+        "{}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    Some(shim)
+}
+
 /// The secret file of a test directory, written once (atomically): rewriting it while a
 /// process started earlier reads it would hand that process an empty secret.
 pub fn secret_file(dir: &std::path::Path, secret: &str) -> PathBuf {

@@ -6,7 +6,8 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use strider_tests::coordinator::integrity;
 use strider_tests::{
-    assert_same_library, binary, export, run, run_ok, sqlite, temp_dir, workspace_root,
+    assert_same_library, binary, export, other_trigonometry_shim, run, run_ok, skip_without,
+    sqlite, temp_dir, workspace_root,
 };
 
 const TINY: &str = "tests/fixtures/tiny.toml";
@@ -96,6 +97,52 @@ fn a_coordinator_killed_anywhere_resumes_to_the_same_library() {
     run_to_end(&db, "1");
     assert_eq!(integrity(&db), "ok");
     assert_same_library(&export(&db), &expected);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A database records what made it: the build identity and the machine's reference-trial
+/// digest. Resumed on a node whose C library computes otherwise (glibc's `sin` and `cos`
+/// one ulp up, preloaded), which the build identity alone cannot tell, `run` and `verify`
+/// say so; resumed where it started, nothing is said. LD_PRELOAD is the GNU loader's.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[test]
+fn a_run_resumed_on_a_node_that_computes_otherwise_says_so() {
+    let dir = temp_dir("other-node");
+    let Some(shim) = other_trigonometry_shim(&dir) else {
+        return skip_without("cc, to build the libm shim");
+    };
+    let db = dir.join("x.db");
+    run_to_end(&db, "2");
+    let made_by = sqlite(&db, "SELECT build FROM experiment");
+    let made_by = made_by.trim();
+    assert!(
+        made_by.starts_with(&strider_common::build_id()) && made_by.contains(", reference trial "),
+        "{made_by}"
+    );
+    let here = run_to_end(&db, "2");
+    assert!(!here.contains("warning"), "{here}");
+    let on_the_other_node = |args: &[&str]| {
+        let out = Command::new(binary("strider-coordinator"))
+            .args(args)
+            .args(["--db", db.to_str().unwrap()])
+            .env("LD_PRELOAD", &shim)
+            .current_dir(workspace_root())
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let there = on_the_other_node(&["run", TINY]);
+    let warning = format!(
+        "was started by {made_by}; this is {}, reference trial ",
+        strider_common::build_id()
+    );
+    assert!(there.contains(&warning), "{there}");
+    assert!(!there.contains(&format!("this is {made_by}")), "{there}");
+    let verified = on_the_other_node(&["verify"]);
+    assert!(
+        verified.contains(&format!("was made by {made_by}; this is ")),
+        "{verified}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

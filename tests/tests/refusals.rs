@@ -16,7 +16,7 @@ use strider_proto::v1::{
     worker_service_client::WorkerServiceClient, CoordinatorMessage, WorkerMessage,
 };
 use strider_tests::coordinator::{serve_command, start_serving};
-use strider_tests::{binary, skip_without, temp_dir, which, workspace_root, Process};
+use strider_tests::{binary, other_trigonometry_shim, skip_without, temp_dir, Process};
 use strider_worker::evaluate::evaluate;
 use tokio::sync::mpsc;
 use tonic::transport::Channel;
@@ -714,24 +714,10 @@ fn a_worker_that_connects_again_ends_its_last_session_at_once() {
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[test]
 fn a_worker_whose_libm_differs_is_refused_by_its_reference_trial() {
-    let Some(cc) = which("cc") else {
+    let (dir, _db, mut coordinator, url) = serving("reference-trial");
+    let Some(shim) = other_trigonometry_shim(&dir) else {
         return skip_without("cc, to build the libm shim");
     };
-    let (dir, _db, mut coordinator, url) = serving("reference-trial");
-    let shim = dir.join("libother-trigonometry.so");
-    let source = workspace_root().join("tests/fixtures/other-trigonometry.c");
-    let built = Command::new(cc)
-        .args(["-shared", "-fPIC", "-O2", "-fno-builtin", "-o"])
-        .arg(&shim)
-        .arg(&source)
-        .args(["-ldl", "-lm"])
-        .output()
-        .unwrap();
-    assert!(
-        built.status.success(),
-        "{}",
-        String::from_utf8_lossy(&built.stderr)
-    );
     let worker = || {
         let mut cmd = Command::new(binary("strider-worker"));
         cmd.args(["--connect", &url, "--threads", "1"])

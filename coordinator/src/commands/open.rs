@@ -1,8 +1,9 @@
 //! Opening a database for a command: to run or serve it (created when new, refused when it
 //! holds another experiment or is inconsistent), or to read it (read-only if need be).
 
-use crate::db::{build_id, extends, first_difference, Db};
+use crate::db::{extends, first_difference, Db};
 use crate::qd::run::RunRecord;
+use crate::service::reference::this_machine_identity;
 use anyhow::{bail, Context};
 use std::path::Path;
 use strider_common::Experiment;
@@ -59,8 +60,9 @@ pub(super) async fn open_or_create(
                     path.display()
                 );
             }
-            if build != build_id() {
-                eprintln!("warning: {} was started by {build}; this is {}: trials are bit-identical only within one build", path.display(), build_id());
+            let here = this_machine_identity();
+            if build != here {
+                eprintln!("warning: {} was started by {build}; this is {here}: trials are bit-identical only within one build on one kind of node (the reference trial's digest tells kinds apart where the C library differs)", path.display());
             }
             eprintln!(
                 "resuming experiment `{}` from {}",
@@ -78,7 +80,7 @@ pub(super) async fn open_or_create(
                     path.display()
                 ),
             };
-            db.create_experiment(&e).await?;
+            db.create_experiment(&e, &this_machine_identity()).await?;
             eprintln!("starting experiment `{}` in {}", e.name, path.display());
             e
         }

@@ -4,8 +4,8 @@
 
 use super::open::open_existing;
 use super::Exit;
-use crate::db::build_id;
 use crate::qd::changes::StoredCandidate;
+use crate::service::reference::this_machine_identity;
 use std::collections::HashMap;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
@@ -33,12 +33,12 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
     let (path, sample) = (args.db.as_path(), args.sample);
     let (db, experiment) = open_existing(path).await?;
     let made_by = db.experiment().await?.map(|(_, build)| build);
-    let other_build = made_by.as_deref().filter(|b| *b != build_id());
+    let here = this_machine_identity();
+    let other_build = made_by.as_deref().filter(|b| *b != here);
     if let Some(b) = other_build {
         eprintln!(
-            "warning: {} was made by {b}; this is {}: breeding and trials are bit-identical only within one build, so differences below may be the build's, not damage",
+            "warning: {} was made by {b}; this is {here}: breeding and trials are bit-identical only within one build on one kind of node, so differences below may be the build's or the node's, not damage",
             path.display(),
-            build_id()
         );
     }
     let runs = db.runs().await?;

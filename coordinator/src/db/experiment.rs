@@ -165,13 +165,14 @@ impl Db {
         Ok(())
     }
 
-    /// Stores a new experiment and its runs.
-    pub async fn create_experiment(&self, e: &Experiment) -> Result<(), DbError> {
+    /// Stores a new experiment and its runs, `made_by` the identity of what runs it (the
+    /// build, and the machine's reference-trial digest where known).
+    pub async fn create_experiment(&self, e: &Experiment, made_by: &str) -> Result<(), DbError> {
         let mut tx = self.pool.begin().await?;
         sqlx::query("INSERT INTO experiment (id, name, definition, build, created_at) VALUES (1, ?, ?, ?, strftime('%Y-%m-%dT%H:%M:%SZ', 'now'))")
             .bind(&e.name)
             .bind(canonical_toml(e))
-            .bind(build_id())
+            .bind(made_by)
             .execute(&mut *tx)
             .await?;
         seal_experiment(&mut tx).await?;

@@ -12,6 +12,22 @@
 
 use std::sync::Mutex;
 
+/// What a database records as having made it, and what a resume or `verify` compares:
+/// the build identity and, where this coordinator has the simulator, its reference
+/// trial's digest, so that a run resumed on a node whose C library computes otherwise
+/// (which the build identity cannot name) says so.
+pub fn this_machine_identity() -> String {
+    #[cfg(feature = "simulator")]
+    let digest = Some(strider_worker::reference_trial::digest());
+    #[cfg(not(feature = "simulator"))]
+    let digest: Option<u64> = None;
+    let build = strider_common::build_id();
+    match digest {
+        Some(d) => format!("{build}, reference trial {d:016x}"),
+        None => build,
+    }
+}
+
 /// The digest workers must match, once known.
 pub struct ReferenceTrial(Mutex<Option<Reference>>);
 
