@@ -714,10 +714,11 @@ fn a_worker_that_connects_again_ends_its_last_session_at_once() {
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[test]
 fn a_worker_whose_libm_differs_is_refused_by_its_reference_trial() {
-    let (dir, _db, mut coordinator, url) = serving("reference-trial");
-    let Some(shim) = other_trigonometry_shim(&dir) else {
+    let shim_dir = temp_dir("reference-trial-shim");
+    let Some(shim) = other_trigonometry_shim(&shim_dir) else {
         return skip_without("cc, to build the libm shim");
     };
+    let (dir, _db, mut coordinator, url) = serving("reference-trial");
     let worker = || {
         let mut cmd = Command::new(binary("strider-worker"));
         cmd.args(["--connect", &url, "--threads", "1"])
@@ -749,4 +750,5 @@ fn a_worker_whose_libm_differs_is_refused_by_its_reference_trial() {
     );
     drop(control);
     std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&shim_dir).unwrap();
 }

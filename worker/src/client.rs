@@ -228,6 +228,16 @@ pub async fn work(
                 return Ok(());
             }
             End::Lost(why, welcomed) => {
+                // Told to stop meanwhile: nothing to retry, and no warning that retrying
+                // would follow.
+                if *shutdown.borrow() {
+                    tracing::info!(
+                        %why,
+                        results_sent = RESULTS_SENT.load(Ordering::Relaxed),
+                        "stopped; the connection was lost meanwhile"
+                    );
+                    return Ok(());
+                }
                 if welcomed {
                     backoff = first_backoff;
                     last_welcome = tokio::time::Instant::now();

@@ -3,7 +3,7 @@
 
 use crate::db::{extends, first_difference, Db};
 use crate::qd::run::RunRecord;
-use crate::service::reference::this_machine_identity;
+use crate::service::reference::{computes_otherwise, this_machine_identity};
 use anyhow::{bail, Context};
 use std::path::Path;
 use strider_common::Experiment;
@@ -61,7 +61,7 @@ pub(super) async fn open_or_create(
                 );
             }
             let here = this_machine_identity();
-            if build != here {
+            if computes_otherwise(&build, &here) {
                 eprintln!("warning: {} was started by {build}; this is {here}: trials are bit-identical only within one build on one kind of node (the reference trial's digest tells kinds apart where the C library differs)", path.display());
             }
             eprintln!(

@@ -5,7 +5,7 @@
 use super::open::open_existing;
 use super::Exit;
 use crate::qd::changes::StoredCandidate;
-use crate::service::reference::this_machine_identity;
+use crate::service::reference::{computes_otherwise, this_machine_identity};
 use std::collections::HashMap;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
@@ -34,7 +34,7 @@ pub async fn execute(args: VerifyArgs) -> anyhow::Result<Exit> {
     let (db, experiment) = open_existing(path).await?;
     let made_by = db.experiment().await?.map(|(_, build)| build);
     let here = this_machine_identity();
-    let other_build = made_by.as_deref().filter(|b| *b != here);
+    let other_build = made_by.as_deref().filter(|b| computes_otherwise(b, &here));
     if let Some(b) = other_build {
         eprintln!(
             "warning: {} was made by {b}; this is {here}: breeding and trials are bit-identical only within one build on one kind of node, so differences below may be the build's or the node's, not damage",

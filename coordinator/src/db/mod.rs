@@ -153,6 +153,15 @@ pub fn standing_figure(s: Standing) -> Option<f64> {
 }
 
 impl Db {
+    /// How many runs have generations left to do.
+    pub async fn unfinished_runs(&self) -> Result<i64, DbError> {
+        Ok(
+            sqlx::query_scalar("SELECT COUNT(*) FROM runs WHERE finished = 0")
+                .fetch_one(&self.pool)
+                .await?,
+        )
+    }
+
     /// Every run with its library, rebuilt from the elites table.
     pub async fn runs(&self) -> Result<Vec<RunRecord>, DbError> {
         // Three queries whatever the number of runs: runs, elites, infeasible elites.

@@ -23,6 +23,15 @@ pub async fn run_local(
     let listener = TcpListener::bind("127.0.0.1:0").await?;
     let url = worker_url(listener.local_addr()?);
     let secret = Secret::random();
+    let opts = ServeOptions {
+        progress_every: Some(progress_every),
+        ..ServeOptions::default()
+    };
+    if db.unfinished_runs().await? == 0 {
+        // Finished already: the service ends as it starts, so no worker (it would find
+        // the service gone and say so).
+        return serve(db, experiment, listener, secret, opts, stop).await;
+    }
     let (stop_worker, stopped) = watch::channel(false);
     let worker = tokio::spawn(work(
         ConnectOptions {
@@ -38,10 +47,6 @@ pub async fn run_local(
         },
         stopped,
     ));
-    let opts = ServeOptions {
-        progress_every: Some(progress_every),
-        ..ServeOptions::default()
-    };
     let served = serve(db, experiment, listener, secret, opts, stop);
     tokio::pin!(served);
     let mut worker = worker;

@@ -28,6 +28,20 @@ pub fn this_machine_identity() -> String {
     }
 }
 
+/// Whether a database made by `stored` (a [`this_machine_identity`], or an older row's bare
+/// build identity) would be stepped otherwise by `here`: another build, or both digests
+/// known and different. A coordinator without the simulator records and has no digest,
+/// so against it only the builds compare (a head node's `serve` and a compute node's
+/// `verify` of one build agree).
+pub fn computes_otherwise(stored: &str, here: &str) -> bool {
+    let split = |s: &str| match s.split_once(", reference trial ") {
+        Some((build, digest)) => (build.to_owned(), Some(digest.to_owned())),
+        None => (s.to_owned(), None),
+    };
+    let ((build, digest), (our_build, our_digest)) = (split(stored), split(here));
+    build != our_build || matches!((digest, our_digest), (Some(a), Some(b)) if a != b)
+}
+
 /// The digest workers must match, once known.
 pub struct ReferenceTrial(Mutex<Option<Reference>>);
 
@@ -86,6 +100,23 @@ impl ReferenceTrial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn identities_differ_by_build_or_by_two_known_digests() {
+        let with = |d: &str| format!("strider 0.1.0 (commit a), reference trial {d}");
+        let bare = "strider 0.1.0 (commit a)";
+        assert!(!computes_otherwise(&with("01"), &with("01")));
+        assert!(computes_otherwise(&with("01"), &with("02")));
+        // Without the simulator on one side: the builds alone.
+        assert!(!computes_otherwise(bare, &with("01")));
+        assert!(!computes_otherwise(&with("01"), bare));
+        assert!(!computes_otherwise(bare, bare));
+        assert!(computes_otherwise("strider 0.1.0 (commit b)", &with("01")));
+        assert!(computes_otherwise(
+            "strider 0.1.0 (commit b), reference trial 01",
+            bare
+        ));
+    }
 
     #[test]
     fn without_its_own_the_first_digest_sets_the_reference() {
