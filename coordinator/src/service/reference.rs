@@ -23,10 +23,13 @@ pub fn this_machine_identity() -> String {
     let digest: Option<u64> = None;
     let build = strider_common::build_id();
     match digest {
-        Some(d) => format!("{build}, reference trial {d:016x}"),
+        Some(d) => format!("{build}{DIGEST_AFTER}{d:016x}"),
         None => build,
     }
 }
+
+/// Between the build identity and the digest in [`this_machine_identity`].
+const DIGEST_AFTER: &str = ", reference trial ";
 
 /// Whether a database made by `stored` (a [`this_machine_identity`], or an older row's bare
 /// build identity) would be stepped otherwise by `here`: another build, or both digests
@@ -34,12 +37,15 @@ pub fn this_machine_identity() -> String {
 /// so against it only the builds compare (a head node's `serve` and a compute node's
 /// `verify` of one build agree).
 pub fn computes_otherwise(stored: &str, here: &str) -> bool {
-    let split = |s: &str| match s.split_once(", reference trial ") {
-        Some((build, digest)) => (build.to_owned(), Some(digest.to_owned())),
-        None => (s.to_owned(), None),
-    };
-    let ((build, digest), (our_build, our_digest)) = (split(stored), split(here));
+    let (build, digest) = build_and_digest(stored);
+    let (our_build, our_digest) = build_and_digest(here);
     build != our_build || matches!((digest, our_digest), (Some(a), Some(b)) if a != b)
+}
+
+fn build_and_digest(identity: &str) -> (&str, Option<&str>) {
+    identity
+        .split_once(DIGEST_AFTER)
+        .map_or((identity, None), |(build, digest)| (build, Some(digest)))
 }
 
 /// The digest workers must match, once known.
