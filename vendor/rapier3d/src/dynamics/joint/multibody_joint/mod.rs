@@ -17,6 +17,11 @@ pub use self::unit_multibody_joint::{
 };
 
 #[cfg(feature = "alloc")]
+pub use self::mass_factor::MassFactor;
+
+#[cfg(feature = "alloc")]
+mod mass_factor;
+#[cfg(feature = "alloc")]
 mod multibody;
 mod multibody_joint_handle;
 #[cfg(feature = "alloc")]

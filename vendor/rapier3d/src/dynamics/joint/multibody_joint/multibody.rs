@@ -1,3 +1,4 @@
+use super::mass_factor::{self, MassFactor};
 use super::multibody_link::{MultibodyLink, MultibodyLinkVec};
 use super::multibody_workspace::MultibodyWorkspace;
 use crate::alloc_prelude::*;
@@ -17,7 +18,7 @@ use crate::utils::mat_to_na;
 use crate::utils::{AngularInertiaOps, CrossProduct, CrossProductMatrix, IndexMut2, vect_to_na};
 #[cfg(test)]
 use na::OMatrix;
-use na::{self, DMatrix, DVectorView, DVectorViewMut, Dyn, LU, SMatrix, SVector, StorageMut};
+use na::{self, DMatrix, DVectorView, DVectorViewMut, Dyn, SMatrix, SVector, StorageMut};
 
 #[cfg(doc)]
 use crate::prelude::{GenericJoint, RigidBody};
@@ -111,13 +112,13 @@ pub struct Multibody {
     //       move dofs from/to a format that matches the augmented mass.
     // TODO: use sparse matrices?
     augmented_mass: DMatrix<Real>,
-    inv_augmented_mass: LU<Real, Dyn, Dyn>,
+    inv_augmented_mass: MassFactor,
     // The indexing sequence for moving all kinematics degrees of
     // freedoms to the end of the generalized coordinates vector.
     augmented_mass_indices: IndexSequence,
 
     acc_augmented_mass: DMatrix<Real>,
-    acc_inv_augmented_mass: LU<Real, Dyn, Dyn>,
+    acc_inv_augmented_mass: MassFactor,
 
     ndofs: usize,
     pub(crate) root_is_dynamic: bool,
@@ -231,8 +232,7 @@ impl Clone for Multibody {
         self.body_jacobians
             .extend(body_jacobians[have..].iter().cloned());
         copy_matrix(&mut self.augmented_mass, augmented_mass);
-        // nalgebra's LU has no way in to its buffers: copied as `clone` does.
-        self.inv_augmented_mass = inv_augmented_mass.clone();
+        self.inv_augmented_mass.clone_from(inv_augmented_mass);
         let IndexSequence {
             first_to_remove,
             index_map,
@@ -240,7 +240,8 @@ impl Clone for Multibody {
         self.augmented_mass_indices.first_to_remove = *first_to_remove;
         self.augmented_mass_indices.index_map.clone_from(index_map);
         copy_matrix(&mut self.acc_augmented_mass, acc_augmented_mass);
-        self.acc_inv_augmented_mass = acc_inv_augmented_mass.clone();
+        self.acc_inv_augmented_mass
+            .clone_from(acc_inv_augmented_mass);
         self.ndofs = *ndofs;
         self.root_is_dynamic = *root_is_dynamic;
         self.solver_id = *solver_id;
@@ -285,9 +286,9 @@ impl Multibody {
             accelerations: DVector::zeros(0),
             body_jacobians: Vec::new(),
             augmented_mass: DMatrix::zeros(0, 0),
-            inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
+            inv_augmented_mass: MassFactor::new(),
             acc_augmented_mass: DMatrix::zeros(0, 0),
-            acc_inv_augmented_mass: LU::new(DMatrix::zeros(0, 0)),
+            acc_inv_augmented_mass: MassFactor::new(),
             augmented_mass_indices: IndexSequence::new(),
             ndofs: 0,
             solver_id: 0,
@@ -488,8 +489,9 @@ impl Multibody {
         self.self_contacts_enabled = enabled;
     }
 
-    /// The inverse augmented mass matrix of this multibody.
-    pub fn inv_augmented_mass(&self) -> &LU<Real, Dyn, Dyn> {
+    /// The inverse augmented mass matrix of this multibody (Strider patch: factorised
+    /// along the multibody's tree, [`MassFactor`]).
+    pub fn inv_augmented_mass(&self) -> &MassFactor {
         &self.inv_augmented_mass
     }
 
@@ -1278,12 +1280,12 @@ impl Multibody {
             .rearrange_rows(&mut self.augmented_mass, true);
 
         // TODO: avoid allocation inside LU at each timestep.
-        self.acc_inv_augmented_mass = LU::new(
+        self.acc_inv_augmented_mass.set_dense(
             self.acc_augmented_mass
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
         );
-        self.inv_augmented_mass = LU::new(
+        self.inv_augmented_mass.set_dense(
             self.augmented_mass
                 .view((0, 0), (effective_dim, effective_dim))
                 .into_owned(),
@@ -1560,18 +1562,28 @@ impl Multibody {
         self.augmented_mass_indices
             .rearrange_rows(&mut self.augmented_mass, true);
 
-        // TODO: avoid allocation inside LU at each timestep.
-        // Strider patch: the whole matrix (no kinematic dofs) copied as one slice; a view's
-        // `into_owned` copies element by element through an iterator. The same values.
-        let leading = |m: &DMatrix<Real>| {
-            if effective_dim == m.nrows() && effective_dim == m.ncols() {
-                m.clone()
-            } else {
-                m.view((0, 0), (effective_dim, effective_dim)).into_owned()
-            }
-        };
-        self.acc_inv_augmented_mass = LU::new(leading(&self.acc_augmented_mass));
-        self.inv_augmented_mass = LU::new(leading(&self.augmented_mass));
+        // Strider patch: factorised along the tree into the factors' own buffers
+        // (`MassFactor`), but for a multibody with kinematic dofs, whose leading blocks
+        // nalgebra's LU factorises as upstream.
+        if effective_dim == self.ndofs {
+            let col_ranges = &self.workspace.col_ranges;
+            let dofs = || {
+                self.links
+                    .iter()
+                    .map(|link| (link.assembly_id, link.joint.ndofs()))
+            };
+            self.acc_inv_augmented_mass
+                .set_tree(&self.acc_augmented_mass, col_ranges, dofs());
+            self.inv_augmented_mass
+                .set_tree(&self.augmented_mass, col_ranges, dofs());
+        } else {
+            let leading =
+                |m: &DMatrix<Real>| m.view((0, 0), (effective_dim, effective_dim)).into_owned();
+            self.acc_inv_augmented_mass
+                .set_dense(leading(&self.acc_augmented_mass));
+            self.inv_augmented_mass
+                .set_dense(leading(&self.augmented_mass));
+        }
     }
 
     /// Per-DoF inverse joint-space inertia `diag(M⁻¹)` at the current configuration, where `M`
@@ -2252,22 +2264,23 @@ impl Multibody {
     /// Strider patch: the solve of [`Self::fill_jacobians`] for several rows at once (the
     /// rows [`Self::fill_jacobians_unsolved`] wrote at `j_ids`).
     ///
-    /// `LU::solve_mut` on one row is two triangular solves whose every step waits on the
-    /// one before; a contact's rows (up to 12) are independent, so here they are solved
-    /// side by side, each entry of each row receiving exactly the operations, in the same
-    /// order, that `solve_mut` gives it (its permutation, `y = -x_i l + y` down the unit
-    /// lower factor, `x_i = x_i / u_ii` then `y = -x_i u + y` up the upper one): the same
-    /// bits, without the wait. Rows of a multibody with kinematic dofs, or more rows or
-    /// dofs than the buffer holds, are solved one by one as before.
+    /// A solve of one row is a chain whose every step waits on the one before; a
+    /// contact's rows (up to 12) are independent, so here they are solved side by side
+    /// ([`MassFactor::solve_rows`]), each entry of each row receiving exactly the
+    /// operations, in the same order, that [`MassFactor::solve_mut`] gives it: the same
+    /// bits, without the wait. Rows of a multibody whose matrix nalgebra's LU factorised
+    /// (kinematic dofs, a pivot that was not positive), or more rows or dofs than the
+    /// buffer holds, are solved one by one.
     pub(crate) fn solve_jacobians(&self, j_ids: &[usize], jacobians: &mut DVector) {
         const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;
-        const MAX_DOFS: usize = 64;
+        const MAX_DOFS: usize = mass_factor::MAX_DOFS;
         let n = self.ndofs;
         let rows = j_ids.len();
         let batched = self.augmented_mass_indices.first_to_remove == IndexSequence::NONE
             && (2..=MAX_ROWS).contains(&rows)
             && (1..=MAX_DOFS).contains(&n)
-            && self.inv_augmented_mass.lu_internal().nrows() == n;
+            && self.inv_augmented_mass.is_tree()
+            && self.inv_augmented_mass.nrows() == n;
         if !batched {
             if n == 0 {
                 return;
@@ -2285,7 +2298,7 @@ impl Multibody {
         }
         // Row-interleaved: entry i of row c at `x[i][c]`, `MAX_ROWS` wide whatever the
         // number of rows (the unused lanes hold zeros and are dropped), so that every
-        // loop below is a fixed-length one the compiler turns into vector instructions.
+        // loop is a fixed-length one the compiler turns into vector instructions.
         let mut buffer = [[0.0 as Real; MAX_ROWS]; MAX_DOFS];
         let x = &mut buffer[..n];
         for (c, &j_id) in j_ids.iter().enumerate() {
@@ -2294,29 +2307,8 @@ impl Multibody {
                 xi[c] = *v;
             }
         }
-        // The LU's row permutation, applied to every row at once: entry i of every row is
-        // `x[i]`, a column of this view.
-        self.inv_augmented_mass
-            .p()
-            .permute_columns(
-                &mut na::MatrixViewMut::<Real, na::Const<MAX_ROWS>, Dyn>::from_slice(
-                    x.as_flattened_mut(),
-                    n,
-                ),
-            );
-        // Both factors from the LU's packed matrix, as `solve_mut` reads them: `l` below
-        // the diagonal (its unit diagonal implied), `u` on and above it. (nalgebra's `l()`
-        // and `u()` copied them out element by element each step.)
-        let packed = self.inv_augmented_mass.lu_internal().as_slice();
-        #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if std::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX, checked just above.
-            unsafe { lu_solve_rows_avx(x, packed) };
-        } else {
-            lu_solve_rows(x, packed);
-        }
-        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
-        lu_solve_rows(x, packed);
+        let solved = solve_rows(&self.inv_augmented_mass, x);
+        debug_assert!(solved, "a tree factor of the rows' size");
         for (c, &j_id) in j_ids.iter().enumerate() {
             for (i, xi) in x.iter().enumerate() {
                 jacobians[j_id + n + i] = xi[c];
@@ -2558,56 +2550,25 @@ fn spatial_product(
     out.columns_mut(s, n).gemm(1.0, m, &j.columns(s, n), 0.0);
 }
 
-/// The rows of [`Multibody::solve_jacobians`] (`x`, row-interleaved) solved against the
-/// LU's packed matrix (`n x n`, column-major) of the permuted mass matrix: its unit-lower
-/// factor below the diagonal, its upper factor on and above it.
-#[inline(always)]
-fn lu_solve_rows(x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]], packed: &[Real]) {
-    let (l, u) = (packed, packed);
-    const MAX_ROWS: usize = 3 * crate::math::MAX_MANIFOLD_POINTS;
-    let n = x.len();
-    // nalgebra's `solve_lower_triangular_with_diag_mut` with a unit diagonal.
-    for i in 0..n - 1 {
-        let (head, tail) = x.split_at_mut(i + 1);
-        // A copy, so the compiler knows the stores below cannot change it.
-        let xi: [Real; MAX_ROWS] = head[i];
-        let l_col = &l[i * n + i + 1..(i + 1) * n];
-        for (y, lv) in tail.iter_mut().zip(l_col) {
-            for c in 0..MAX_ROWS {
-                let coeff = xi[c] / 1.0;
-                y[c] = -coeff * *lv * 1.0 + 1.0 * y[c];
-            }
-        }
+/// [`MassFactor::solve_rows`] for [`Multibody::solve_jacobians`]'s buffer, with AVX's
+/// eight lanes where the CPU has it (no FMA, so each entry's arithmetic is unchanged).
+fn solve_rows(factor: &MassFactor, x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]]) -> bool {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if std::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX, checked just above.
+        return unsafe { solve_rows_avx(factor, x) };
     }
-    // nalgebra's `solve_upper_triangular_vector_mut`, which stops at a zero pivot.
-    for i in (0..n).rev() {
-        let diag = u[i * n + i];
-        if diag == 0.0 {
-            break;
-        }
-        let (head, tail) = x.split_at_mut(i);
-        for v in tail[0].iter_mut() {
-            *v /= diag;
-        }
-        let xi: [Real; MAX_ROWS] = tail[0];
-        let u_col = &u[i * n..i * n + i];
-        for (y, uv) in head.iter_mut().zip(u_col) {
-            for c in 0..MAX_ROWS {
-                y[c] = -xi[c] * *uv * 1.0 + 1.0 * y[c];
-            }
-        }
-    }
+    factor.solve_rows(x)
 }
 
-/// [`lu_solve_rows`] compiled for CPUs with AVX: eight lanes instead of four, and no FMA,
-/// so each entry's arithmetic is unchanged.
+/// [`MassFactor::solve_rows`] compiled for CPUs with AVX.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[target_feature(enable = "avx")]
-unsafe fn lu_solve_rows_avx(
+unsafe fn solve_rows_avx(
+    factor: &MassFactor,
     x: &mut [[Real; 3 * crate::math::MAX_MANIFOLD_POINTS]],
-    packed: &[Real],
-) {
-    lu_solve_rows(x, packed)
+) -> bool {
+    factor.solve_rows(x)
 }
 
 /// Fills `ranges[i]` with link `i`'s nonzero body-Jacobian columns `(start, len)`: its
@@ -2616,6 +2577,10 @@ unsafe fn lu_solve_rows_avx(
 fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usize)>>) {
     ranges.resize_with(links.len(), Vec::new);
     for (i, link) in links.iter().enumerate() {
+        debug_assert!(
+            i == 0 || link.parent_internal_id < i,
+            "a child before its parent"
+        );
         let own = (link.assembly_id, link.joint.ndofs());
         // A parent comes before its children, so its ranges are already filled.
         let (before, from_i) = ranges.split_at_mut(i);
@@ -3736,38 +3701,64 @@ mod test {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     #[test]
     fn batched_solve_is_the_same_with_avx() {
-        use super::{lu_solve_rows, lu_solve_rows_avx};
+        use super::{solve_rows, solve_rows_avx};
         use crate::math::{MAX_MANIFOLD_POINTS, Real};
         if !std::is_x86_feature_detected!("avx") {
             return;
         }
+        let (bodies, mut mb) = moving_three_legged_tree();
+        mb.update_mass_matrix(1.0 / 240.0, &bodies);
+        assert!(mb.inv_augmented_mass.is_tree());
+        let n = mb.ndofs();
         let mut state = 0x0bad_f00d_u32;
         let mut next = move || {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 4.0
         };
-        let n = 21;
-        // A diagonal away from zero, so every row is solved.
-        let packed: Vec<Real> = (0..n * n)
-            .map(|e| {
-                if e % (n + 1) == 0 {
-                    3.0 + next().abs()
-                } else {
-                    next()
-                }
-            })
-            .collect();
         let x: Vec<[Real; 3 * MAX_MANIFOLD_POINTS]> =
             (0..n).map(|_| core::array::from_fn(|_| next())).collect();
         let (mut plain, mut avx) = (x.clone(), x.clone());
-        lu_solve_rows(&mut plain, &packed);
+        assert!(mb.inv_augmented_mass.solve_rows(&mut plain));
         // SAFETY: the CPU has AVX, checked above.
-        unsafe { lu_solve_rows_avx(&mut avx, &packed) };
+        assert!(unsafe { solve_rows_avx(&mb.inv_augmented_mass, &mut avx) });
         let bits = |x: &[[Real; 3 * MAX_MANIFOLD_POINTS]]| {
             x.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>()
         };
         assert_ne!(bits(&plain), bits(&x));
         assert_eq!(bits(&plain), bits(&avx));
+        let mut dispatched = x.clone();
+        assert!(solve_rows(&mb.inv_augmented_mass, &mut dispatched));
+        assert_eq!(bits(&plain), bits(&dispatched));
+    }
+
+    /// Strider patch: both augmented mass matrices of moving trees (a free root and three
+    /// legs of one to four links; the Coriolis terms make one unsymmetric) are factorised
+    /// along the tree, and their solves agree with nalgebra's pivoting LU of the same
+    /// matrices to rounding.
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn tree_factors_solve_as_the_dense_lu() {
+        for links in 1..=4 {
+            let (bodies, mut mb) = moving_tree(links);
+            mb.update_mass_matrix(1.0 / 240.0, &bodies);
+            let n = mb.ndofs();
+            assert!((&mb.acc_augmented_mass - mb.acc_augmented_mass.transpose()).amax() > 0.0);
+            for (factor, matrix) in [
+                (&mb.inv_augmented_mass, &mb.augmented_mass),
+                (&mb.acc_inv_augmented_mass, &mb.acc_augmented_mass),
+            ] {
+                assert!(factor.is_tree(), "{links} links");
+                let b = na::DMatrix::<Real>::from_fn(n, 2, |i, c| {
+                    (i as Real + 1.0) * if c == 0 { 1.0 } else { -0.3 }
+                });
+                let mut x = b.clone();
+                factor.solve_mut(&mut x);
+                let dense = na::LU::new(matrix.clone()).solve(&b).unwrap();
+                let (diff, scale) = ((&x - &dense).amax(), dense.amax());
+                assert!(diff <= 1.0e-4 * scale, "{links} links: {diff} of {scale}");
+                assert_ne!(x, b);
+            }
+        }
     }
 
     /// Strider patch: the spatial products the mass matrix is assembled from have the same

@@ -1,0 +1,421 @@
+//! Strider patch: the augmented mass matrices factorised along the multibody's tree.
+//!
+//! Entry `(i, j)` of a multibody's mass matrix (and of the augmented matrices built from
+//! it: plus `dt` times the damping, `dt²` times the stiffness, the armature and, in one of
+//! them, the `dt`-scaled Coriolis and gyroscopic terms) is zero unless dof `i` is dof
+//! `j`'s ancestor, its descendant, or itself: a link's body Jacobian is zero outside its
+//! own and its ancestors' columns. Eliminated leaves first (the dofs in decreasing order:
+//! every dof comes after its ancestors), each pivot's column and row reach only its
+//! ancestors, which are all coupled already, so the factors fill nothing in (Featherstone,
+//! "Efficient factorization of the joint-space inertia matrix for branched kinematic
+//! trees", IJRR 24(6), 2005, whose `LᵀDL` this is the unsymmetric form of: `A = P Q`, `P`
+//! unit upper triangular, `Q` lower). For a four-legged robot of 18 dofs that is about
+//! 650 multiply-adds a factorisation instead of a dense LU's 1,800, and about 200 a solve
+//! instead of 300.
+//!
+//! The pivots are taken in that order, without row exchanges: the matrices are the
+//! symmetric positive definite mass matrix plus a non-negative diagonal and, in one, the
+//! small unsymmetric `dt`-scaled terms. A pivot that is not positive and finite, or has
+//! lost all but a rounding error of its diagonal entry to the eliminations, makes the
+//! factorisation fall back to nalgebra's pivoting LU of the same matrix, as does a
+//! multibody with kinematic dofs (factorised as upstream: its leading block of the other
+//! dofs, renumbered).
+
+use crate::alloc_prelude::*;
+use crate::math::Real;
+use na::constraint::{SameNumberOfRows, ShapeConstraint};
+use na::{DMatrix, Dim, Dyn, LU, Matrix, StorageMut};
+
+/// Dofs of the buffers of one-column solves and of `Multibody::solve_jacobians`: more
+/// take a heap buffer, or are solved one row at a time.
+pub(crate) const MAX_DOFS: usize = 64;
+
+/// A factorised augmented mass matrix, solved with [`MassFactor::solve_mut`].
+#[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
+#[derive(Debug, Default)]
+pub struct MassFactor {
+    n: usize,
+    /// `Some` when the matrix was factorised by nalgebra's pivoting LU instead.
+    dense: Option<LU<Real, Dyn, Dyn>>,
+    /// The tree factors, `n x n` column-major: for each dof `k` and each of its ancestors
+    /// `i`, the multiplier `P[i, k]` at `(i, k)` (above the diagonal) and the reduced row's
+    /// entry `Q[k, i]` at `(k, i)` (below); the pivot `Q[k, k]` at `(k, k)`. Other entries
+    /// are zero.
+    factors: Vec<Real>,
+    /// Dof `k`'s ancestors, as ascending ranges `(start, len)` of dofs:
+    /// `ancestors[offsets[k]..offsets[k + 1]]`.
+    offsets: Vec<usize>,
+    ancestors: Vec<(usize, usize)>,
+}
+
+impl Clone for MassFactor {
+    fn clone(&self) -> Self {
+        let Self {
+            n,
+            dense,
+            factors,
+            offsets,
+            ancestors,
+        } = self;
+        Self {
+            n: *n,
+            dense: dense.clone(),
+            factors: factors.clone(),
+            offsets: offsets.clone(),
+            ancestors: ancestors.clone(),
+        }
+    }
+
+    /// Into this factor's own buffers: the world is copied every few steps. The fields
+    /// are named in full, so one added fails to compile rather than go uncopied.
+    fn clone_from(&mut self, source: &Self) {
+        let Self {
+            n,
+            dense,
+            factors,
+            offsets,
+            ancestors,
+        } = source;
+        self.n = *n;
+        self.dense.clone_from(dense);
+        self.factors.clone_from(factors);
+        self.offsets.clone_from(offsets);
+        self.ancestors.clone_from(ancestors);
+    }
+}
+
+impl MassFactor {
+    /// The factor of a `0 x 0` matrix.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The matrix's dimension.
+    pub fn nrows(&self) -> usize {
+        self.n
+    }
+
+    /// Whether the matrix was factorised along the tree (else by nalgebra's LU).
+    pub fn is_tree(&self) -> bool {
+        self.dense.is_none()
+    }
+
+    /// Factorises `matrix` with nalgebra's pivoting LU (a multibody with kinematic dofs).
+    pub(crate) fn set_dense(&mut self, matrix: DMatrix<Real>) {
+        self.n = matrix.nrows();
+        self.dense = Some(LU::new(matrix));
+    }
+
+    /// Factorises `matrix` (`n x n`, the multibody's dofs in its assembly order) along the
+    /// tree that `link_columns` and `link_dofs` describe: `link_columns[l]` is link `l`'s
+    /// own and ancestors' dofs as ascending ranges, and `link_dofs[l]` its own dofs
+    /// `(first, count)`, in dof order. Falls back to nalgebra's LU on a pivot that is not
+    /// positive and finite, or not above a rounding error of its diagonal entry.
+    pub(crate) fn set_tree(
+        &mut self,
+        matrix: &DMatrix<Real>,
+        link_columns: &[Vec<(usize, usize)>],
+        link_dofs: impl Iterator<Item = (usize, usize)>,
+    ) {
+        let n = matrix.nrows();
+        self.n = n;
+        self.dense = None;
+        self.set_ancestors(n, link_columns, link_dofs);
+        self.factors.clear();
+        self.factors.extend_from_slice(matrix.as_slice());
+        if !self.factorise(matrix) {
+            self.dense = Some(LU::new(matrix.clone()));
+        }
+    }
+
+    fn set_ancestors(
+        &mut self,
+        n: usize,
+        link_columns: &[Vec<(usize, usize)>],
+        link_dofs: impl Iterator<Item = (usize, usize)>,
+    ) {
+        // Dof `k` of a link: the link's ranges cut short before `k` (its ancestors'
+        // dofs, then its own joint's dofs before `k`). The links' dofs come in dof order
+        // (assembly ids are given in link order).
+        self.ancestors.clear();
+        self.offsets.clear();
+        self.offsets.push(0);
+        for (columns, (first, count)) in link_columns.iter().zip(link_dofs) {
+            debug_assert_eq!(first, self.offsets.len() - 1, "dofs out of order");
+            for k in first..first + count {
+                for &(s, len) in columns {
+                    if s >= k {
+                        break;
+                    }
+                    self.ancestors.push((s, len.min(k - s)));
+                }
+                self.offsets.push(self.ancestors.len());
+            }
+        }
+        debug_assert_eq!(self.offsets.len(), n + 1, "a dof without a link");
+        self.offsets.resize(n + 1, self.ancestors.len());
+    }
+
+    fn ancestors_of(&self, k: usize) -> &[(usize, usize)] {
+        &self.ancestors[self.offsets[k]..self.offsets[k + 1]]
+    }
+
+    /// Eliminates the dofs last first, in place, from `matrix`'s entries; `false` on a
+    /// pivot that is not positive and finite, or not above a rounding error of its
+    /// diagonal entry in `matrix`.
+    fn factorise(&mut self, matrix: &DMatrix<Real>) -> bool {
+        let n = self.n;
+        for k in (0..n).rev() {
+            let (before, from_k) = self.factors.split_at_mut(k * n);
+            let col_k = &mut from_k[..n];
+            let pivot = col_k[k];
+            if !(pivot > matrix[(k, k)] * Real::EPSILON && pivot.is_finite()) {
+                return false;
+            }
+            let ancestors = &self.ancestors[self.offsets[k]..self.offsets[k + 1]];
+            // The multipliers `l[i, k] = a[i, k] / d[k]`.
+            for &(s, len) in ancestors {
+                for v in &mut col_k[s..s + len] {
+                    *v /= pivot;
+                }
+            }
+            // Each ancestor column `j` less `l[., k] u[k, j]` over the ancestors' rows.
+            for &(js, jlen) in ancestors {
+                for j in js..js + jlen {
+                    let col_j = &mut before[j * n..(j + 1) * n];
+                    let ukj = col_j[k];
+                    if ukj == 0.0 {
+                        continue;
+                    }
+                    for &(s, len) in ancestors {
+                        for (a, l) in col_j[s..s + len].iter_mut().zip(&col_k[s..s + len]) {
+                            *a -= *l * ukj;
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Solves `matrix x = b` in place for each column of `b` (`n` rows).
+    ///
+    /// # Panics
+    /// If `b` has not `n` rows (as nalgebra's `LU::solve_mut`).
+    pub fn solve_mut<R: Dim, C: Dim, S: StorageMut<Real, R, C>>(
+        &self,
+        b: &mut Matrix<Real, R, C, S>,
+    ) where
+        ShapeConstraint: SameNumberOfRows<R, Dyn>,
+    {
+        if let Some(lu) = &self.dense {
+            let _ = lu.solve_mut(b);
+            return;
+        }
+        let n = self.n;
+        assert_eq!(
+            b.nrows(),
+            n,
+            "a solve of {} rows by a factor of {n}",
+            b.nrows()
+        );
+        if n == 0 {
+            return;
+        }
+        // One column at a time through `solve_rows`, one lane wide: the same operations.
+        let mut stack = [[0.0 as Real; 1]; MAX_DOFS];
+        let mut heap = Vec::new();
+        let x: &mut [[Real; 1]] = if n <= MAX_DOFS {
+            &mut stack[..n]
+        } else {
+            heap.resize(n, [0.0]);
+            &mut heap
+        };
+        for c in 0..b.ncols() {
+            for (i, xi) in x.iter_mut().enumerate() {
+                xi[0] = b[(i, c)];
+            }
+            self.solve_rows(x);
+            for (i, xi) in x.iter().enumerate() {
+                b[(i, c)] = xi[0];
+            }
+        }
+    }
+
+    /// Solves for several right-hand sides at once, row-interleaved (entry `i` of
+    /// right-hand side `c` at `x[i][c]`, `x.len() == n`): each entry receives the
+    /// operations [`Self::solve_mut`] gives it, in the same order, so the same bits, but
+    /// the sides' independent chains side by side. `false` (and `x` untouched) when the
+    /// factorisation is nalgebra's.
+    #[inline(always)]
+    pub(crate) fn solve_rows<const W: usize>(&self, x: &mut [[Real; W]]) -> bool {
+        if self.dense.is_some() || x.len() != self.n {
+            return false;
+        }
+        let n = self.n;
+        let f = &self.factors;
+        for k in (0..n).rev() {
+            let xk: [Real; W] = x[k];
+            for &(s, len) in self.ancestors_of(k) {
+                for (y, l) in x[s..s + len].iter_mut().zip(&f[k * n + s..k * n + s + len]) {
+                    for c in 0..W {
+                        y[c] -= *l * xk[c];
+                    }
+                }
+            }
+        }
+        for k in 0..n {
+            let (head, tail) = x.split_at_mut(k);
+            let mut acc: [Real; W] = tail[0];
+            for &(s, len) in self.ancestors_of(k) {
+                for j in s..s + len {
+                    let u = f[j * n + k];
+                    for c in 0..W {
+                        acc[c] -= u * head[j][c];
+                    }
+                }
+            }
+            let d = f[k * n + k];
+            for c in 0..W {
+                tail[0][c] = acc[c] / d;
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A two-legged tree: a free root (dofs 0-5), legs of three dofs at 6-8 and 9-11
+    /// (hip of two dofs, knee of one: links 1, 2 and 3, 4).
+    /// Each link's columns, and each link's own dofs.
+    type Tree = (Vec<Vec<(usize, usize)>>, Vec<(usize, usize)>);
+
+    fn tree() -> Tree {
+        let columns = vec![
+            vec![(0, 6)],
+            vec![(0, 8)],
+            vec![(0, 9)],
+            vec![(0, 6), (9, 2)],
+            vec![(0, 6), (9, 3)],
+        ];
+        let dofs = vec![(0, 6), (6, 2), (8, 1), (9, 2), (11, 1)];
+        (columns, dofs)
+    }
+
+    fn coupled(columns: &[Vec<(usize, usize)>], i: usize, j: usize) -> bool {
+        columns.iter().any(|c| {
+            let has = |d: usize| c.iter().any(|&(s, l)| (s..s + l).contains(&d));
+            has(i) && has(j)
+        })
+    }
+
+    /// `B Bᵀ` over the tree's pattern (each link adding a block over its columns), a
+    /// diagonal, and an unsymmetric part on the pattern: a mass matrix's structure.
+    fn matrix(columns: &[Vec<(usize, usize)>], n: usize, seed: u32) -> DMatrix<Real> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as Real / (1u32 << 24) as Real - 0.5
+        };
+        let mut m = DMatrix::<Real>::zeros(n, n);
+        for c in columns {
+            let dofs: Vec<usize> = c.iter().flat_map(|&(s, l)| s..s + l).collect();
+            let v: Vec<Real> = dofs.iter().map(|_| next()).collect();
+            for (a, &i) in dofs.iter().enumerate() {
+                for (b, &j) in dofs.iter().enumerate() {
+                    m[(i, j)] += v[a] * v[b];
+                }
+            }
+        }
+        for i in 0..n {
+            m[(i, i)] += 0.5 + next().abs();
+            for j in 0..n {
+                if i != j && coupled(columns, i, j) {
+                    m[(i, j)] += 0.01 * next();
+                }
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn tree_solves_agree_with_dense_lu() {
+        let (columns, dofs) = tree();
+        for seed in 0..50 {
+            let m = matrix(&columns, 12, seed);
+            let mut factor = MassFactor::new();
+            factor.set_tree(&m, &columns, dofs.iter().copied());
+            assert!(factor.is_tree());
+            let b = DMatrix::<Real>::from_fn(12, 3, |i, c| (i * 3 + c) as Real - 7.0);
+            let mut x = b.clone();
+            factor.solve_mut(&mut x);
+            let expected = LU::new(m.clone()).solve(&b).unwrap();
+            let residual = (&m * &x - &b).abs().max();
+            assert!(residual < 1e-4, "seed {seed}: residual {residual}");
+            assert!((&x - &expected).abs().max() < 1e-3 * expected.abs().max().max(1.0));
+        }
+    }
+
+    #[test]
+    fn rows_solved_together_match_one_by_one_bit_for_bit() {
+        let (columns, dofs) = tree();
+        let m = matrix(&columns, 12, 7);
+        let mut factor = MassFactor::new();
+        factor.set_tree(&m, &columns, dofs.iter().copied());
+        let mut rows = [[0.0 as Real; 12]; 12];
+        for (i, row) in rows.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = ((i * 7 + c * 3) % 11) as Real * 0.37 - 1.5;
+            }
+        }
+        let mut together = rows;
+        assert!(factor.solve_rows(&mut together));
+        for c in 0..12 {
+            let mut one = na::DVector::<Real>::from_fn(12, |i, _| rows[i][c]);
+            factor.solve_mut(&mut one);
+            for i in 0..12 {
+                assert_eq!(
+                    one[i].to_bits(),
+                    together[i][c].to_bits(),
+                    "entry {i} of {c}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_pivot_that_is_not_positive_falls_back_to_the_pivoting_lu() {
+        let (columns, dofs) = tree();
+        let mut m = matrix(&columns, 12, 3);
+        // A leaf whose pivot is zero: nalgebra's LU exchanges rows, the tree cannot.
+        m[(11, 11)] = 0.0;
+        let mut factor = MassFactor::new();
+        factor.set_tree(&m, &columns, dofs.iter().copied());
+        assert!(!factor.is_tree());
+        let b = DMatrix::<Real>::from_fn(12, 1, |i, _| i as Real);
+        let mut x = b.clone();
+        factor.solve_mut(&mut x);
+        assert_eq!(x, LU::new(m).solve(&b).unwrap());
+    }
+
+    #[test]
+    fn the_factors_keep_the_tree_pattern() {
+        let (columns, dofs) = tree();
+        let m = matrix(&columns, 12, 11);
+        let mut factor = MassFactor::new();
+        factor.set_tree(&m, &columns, dofs.iter().copied());
+        for i in 0..12 {
+            for j in 0..12 {
+                if !coupled(&columns, i, j) {
+                    assert_eq!(factor.factors[j * 12 + i], 0.0, "fill at ({i}, {j})");
+                    assert_eq!(m[(i, j)], 0.0);
+                }
+            }
+        }
+        // The two legs are not coupled: dof 7 (leg one) and 10 (leg two).
+        assert!(!coupled(&columns, 7, 10));
+    }
+}
