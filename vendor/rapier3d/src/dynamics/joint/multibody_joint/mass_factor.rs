@@ -31,39 +31,37 @@ use na::{DMatrix, Dim, Dyn, LU, Matrix, StorageMut};
 pub(crate) const MAX_DOFS: usize = 64;
 
 /// A factorised augmented mass matrix, solved with [`MassFactor::solve_mut`].
+///
+/// Dof `k`'s ancestors `c = chain(k)` (ascending) form a chain, so the ancestors of its
+/// ancestor `c[t]` are `c[..t]`: each dof's entries of the factors are stored packed,
+/// in the order of its chain, and eliminating `k` updates, for each `t`, the first `t`
+/// entries of `c[t]`'s column and row, two contiguous runs.
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
 #[derive(Debug, Default)]
 pub struct MassFactor {
     n: usize,
     /// `Some` when the matrix was factorised by nalgebra's pivoting LU instead.
     dense: Option<LU<Real, Dyn, Dyn>>,
-    /// The tree factors, `n x n` column-major: for each dof `k` and each of its ancestors
-    /// `i`, the multiplier `P[i, k]` at `(i, k)` (above the diagonal) and the reduced row's
-    /// entry `Q[k, i]` at `(k, i)` (below); the pivot `Q[k, k]` at `(k, k)`. Other entries
-    /// are zero.
-    factors: Vec<Real>,
-    /// Dof `k`'s ancestors, as ascending ranges `(start, len)` of dofs:
-    /// `ancestors[offsets[k]..offsets[k + 1]]`.
+    /// What `chains` were computed from: each link's ranges and own dofs, flattened.
+    tree: Vec<usize>,
+    /// Dof `k`'s ancestors, ascending: `chains[offsets[k]..offsets[k + 1]]`.
     offsets: Vec<usize>,
-    ancestors: Vec<(usize, usize)>,
+    chains: Vec<usize>,
+    /// `P[c[t], k]` at `offsets[k] + t` (`c = chain(k)`): column `k` of the unit upper
+    /// factor `P`, the multipliers.
+    column: Vec<Real>,
+    /// `Q[k, c[t]]` at `offsets[k] + t`: row `k` of the lower factor `Q`, left of its
+    /// diagonal.
+    row: Vec<Real>,
+    /// `Q[k, k]`, the pivots.
+    pivots: Vec<Real>,
 }
 
 impl Clone for MassFactor {
     fn clone(&self) -> Self {
-        let Self {
-            n,
-            dense,
-            factors,
-            offsets,
-            ancestors,
-        } = self;
-        Self {
-            n: *n,
-            dense: dense.clone(),
-            factors: factors.clone(),
-            offsets: offsets.clone(),
-            ancestors: ancestors.clone(),
-        }
+        let mut copy = Self::default();
+        copy.clone_from(self);
+        copy
     }
 
     /// Into this factor's own buffers: the world is copied every few steps. The fields
@@ -72,15 +70,21 @@ impl Clone for MassFactor {
         let Self {
             n,
             dense,
-            factors,
+            tree,
             offsets,
-            ancestors,
+            chains,
+            column,
+            row,
+            pivots,
         } = source;
         self.n = *n;
         self.dense.clone_from(dense);
-        self.factors.clone_from(factors);
+        self.tree.clone_from(tree);
         self.offsets.clone_from(offsets);
-        self.ancestors.clone_from(ancestors);
+        self.chains.clone_from(chains);
+        self.column.clone_from(column);
+        self.row.clone_from(row);
+        self.pivots.clone_from(pivots);
     }
 }
 
@@ -115,29 +119,50 @@ impl MassFactor {
         &mut self,
         matrix: &DMatrix<Real>,
         link_columns: &[Vec<(usize, usize)>],
-        link_dofs: impl Iterator<Item = (usize, usize)>,
+        link_dofs: impl Iterator<Item = (usize, usize)> + Clone,
     ) {
         let n = matrix.nrows();
         self.n = n;
         self.dense = None;
-        self.set_ancestors(n, link_columns, link_dofs);
-        self.factors.clear();
-        self.factors.extend_from_slice(matrix.as_slice());
+        self.set_chains(n, link_columns, link_dofs);
         if !self.factorise(matrix) {
             self.dense = Some(LU::new(matrix.clone()));
         }
     }
 
-    fn set_ancestors(
+    /// Computes each dof's chain of ancestors, unless the tree is the one they were
+    /// computed for (the same links, ranges and dofs as the last call's).
+    fn set_chains(
         &mut self,
         n: usize,
         link_columns: &[Vec<(usize, usize)>],
-        link_dofs: impl Iterator<Item = (usize, usize)>,
+        link_dofs: impl Iterator<Item = (usize, usize)> + Clone,
     ) {
+        let mut same = self.offsets.len() == n + 1;
+        let mut at = 0;
+        for (columns, (first, count)) in link_columns.iter().zip(link_dofs.clone()) {
+            for value in
+                columns
+                    .iter()
+                    .flat_map(|&(s, len)| [s, len])
+                    .chain([usize::MAX, first, count])
+            {
+                same &= self.tree.get(at) == Some(&value);
+                if !same {
+                    self.tree.truncate(at);
+                    self.tree.push(value);
+                }
+                at += 1;
+            }
+        }
+        if same && self.tree.len() == at {
+            return;
+        }
+        self.tree.truncate(at);
         // Dof `k` of a link: the link's ranges cut short before `k` (its ancestors'
         // dofs, then its own joint's dofs before `k`). The links' dofs come in dof order
         // (assembly ids are given in link order).
-        self.ancestors.clear();
+        self.chains.clear();
         self.offsets.clear();
         self.offsets.push(0);
         for (columns, (first, count)) in link_columns.iter().zip(link_dofs) {
@@ -147,52 +172,71 @@ impl MassFactor {
                     if s >= k {
                         break;
                     }
-                    self.ancestors.push((s, len.min(k - s)));
+                    self.chains.extend(s..s + len.min(k - s));
                 }
-                self.offsets.push(self.ancestors.len());
+                self.offsets.push(self.chains.len());
             }
         }
         debug_assert_eq!(self.offsets.len(), n + 1, "a dof without a link");
-        self.offsets.resize(n + 1, self.ancestors.len());
+        self.offsets.resize(n + 1, self.chains.len());
     }
 
-    fn ancestors_of(&self, k: usize) -> &[(usize, usize)] {
-        &self.ancestors[self.offsets[k]..self.offsets[k + 1]]
+    /// Dof `k`'s ancestors, ascending.
+    fn chain(&self, k: usize) -> &[usize] {
+        &self.chains[self.offsets[k]..self.offsets[k + 1]]
     }
 
-    /// Eliminates the dofs last first, in place, from `matrix`'s entries; `false` on a
-    /// pivot that is not positive and finite, or not above a rounding error of its
-    /// diagonal entry in `matrix`.
+    /// Copies `matrix`'s entries into the packed factors and eliminates the dofs last
+    /// first; `false` on a pivot that is not positive and finite, or not above a rounding
+    /// error of its diagonal entry.
     fn factorise(&mut self, matrix: &DMatrix<Real>) -> bool {
         let n = self.n;
+        let a = matrix.as_slice();
+        let total = self.chains.len();
+        self.column.resize(total, 0.0);
+        self.row.resize(total, 0.0);
+        self.pivots.resize(n, 0.0);
+        for k in 0..n {
+            let (start, end) = (self.offsets[k], self.offsets[k + 1]);
+            let a_k = &a[k * n..(k + 1) * n];
+            let entries = self.chains[start..end]
+                .iter()
+                .zip(&mut self.column[start..end])
+                .zip(&mut self.row[start..end]);
+            for ((&i, column), row) in entries {
+                *column = a_k[i];
+                *row = a[i * n + k];
+            }
+            self.pivots[k] = a_k[k];
+        }
         for k in (0..n).rev() {
-            let (before, from_k) = self.factors.split_at_mut(k * n);
-            let col_k = &mut from_k[..n];
-            let pivot = col_k[k];
-            if !(pivot > matrix[(k, k)] * Real::EPSILON && pivot.is_finite()) {
+            let pivot = self.pivots[k];
+            if !(pivot > a[k * n + k] * Real::EPSILON && pivot.is_finite()) {
                 return false;
             }
-            let ancestors = &self.ancestors[self.offsets[k]..self.offsets[k + 1]];
-            // The multipliers `l[i, k] = a[i, k] / d[k]`.
-            for &(s, len) in ancestors {
-                for v in &mut col_k[s..s + len] {
-                    *v /= pivot;
-                }
+            let (start, end) = (self.offsets[k], self.offsets[k + 1]);
+            // The multipliers `P[i, k] = A[i, k] / Q[k, k]`.
+            for l in &mut self.column[start..end] {
+                *l /= pivot;
             }
-            // Each ancestor column `j` less `l[., k] u[k, j]` over the ancestors' rows.
-            for &(js, jlen) in ancestors {
-                for j in js..js + jlen {
-                    let col_j = &mut before[j * n..(j + 1) * n];
-                    let ukj = col_j[k];
-                    if ukj == 0.0 {
-                        continue;
-                    }
-                    for &(s, len) in ancestors {
-                        for (a, l) in col_j[s..s + len].iter_mut().zip(&col_k[s..s + len]) {
-                            *a -= *l * ukj;
-                        }
-                    }
+            // Less `P[., k] Q[k, .]` over the ancestors' rows and columns: for the
+            // chain's `t`-th dof `m`, whose own chain is the first `t`, its column's and
+            // its row's entries and its pivot.
+            let (before, from_k) = self.column.split_at_mut(start);
+            let l = &from_k[..end - start];
+            let (row_before, row_from_k) = self.row.split_at_mut(start);
+            let u = &row_from_k[..end - start];
+            for (t, &m) in self.chains[start..end].iter().enumerate() {
+                let m_start = self.offsets[m];
+                debug_assert_eq!(self.offsets[m + 1] - m_start, t);
+                let (lt, ut) = (l[t], u[t]);
+                for (y, li) in before[m_start..m_start + t].iter_mut().zip(&l[..t]) {
+                    *y -= *li * ut;
                 }
+                for (y, uj) in row_before[m_start..m_start + t].iter_mut().zip(&u[..t]) {
+                    *y -= lt * *uj;
+                }
+                self.pivots[m] -= lt * ut;
             }
         }
         true
@@ -253,29 +297,29 @@ impl MassFactor {
             return false;
         }
         let n = self.n;
-        let f = &self.factors;
+        // The eliminations, leaves first: `P y = b`.
         for k in (0..n).rev() {
+            let (start, end) = (self.offsets[k], self.offsets[k + 1]);
             let xk: [Real; W] = x[k];
-            for &(s, len) in self.ancestors_of(k) {
-                for (y, l) in x[s..s + len].iter_mut().zip(&f[k * n + s..k * n + s + len]) {
-                    for c in 0..W {
-                        y[c] -= *l * xk[c];
-                    }
+            for (&i, l) in self.chains[start..end].iter().zip(&self.column[start..end]) {
+                let y = &mut x[i];
+                for c in 0..W {
+                    y[c] -= *l * xk[c];
                 }
             }
         }
+        // `Q x = y`, lower triangular in dof order.
         for k in 0..n {
+            let (start, end) = (self.offsets[k], self.offsets[k + 1]);
             let (head, tail) = x.split_at_mut(k);
             let mut acc: [Real; W] = tail[0];
-            for &(s, len) in self.ancestors_of(k) {
-                for j in s..s + len {
-                    let u = f[j * n + k];
-                    for c in 0..W {
-                        acc[c] -= u * head[j][c];
-                    }
+            for (&j, u) in self.chains[start..end].iter().zip(&self.row[start..end]) {
+                let xj = &head[j];
+                for c in 0..W {
+                    acc[c] -= *u * xj[c];
                 }
             }
-            let d = f[k * n + k];
+            let d = self.pivots[k];
             for c in 0..W {
                 tail[0][c] = acc[c] / d;
             }
@@ -402,20 +446,28 @@ mod tests {
     }
 
     #[test]
-    fn the_factors_keep_the_tree_pattern() {
+    fn the_factors_multiply_back_to_the_matrix() {
         let (columns, dofs) = tree();
-        let m = matrix(&columns, 12, 11);
+        let n = 12;
+        let m = matrix(&columns, n, 11);
         let mut factor = MassFactor::new();
         factor.set_tree(&m, &columns, dofs.iter().copied());
-        for i in 0..12 {
-            for j in 0..12 {
-                if !coupled(&columns, i, j) {
-                    assert_eq!(factor.factors[j * 12 + i], 0.0, "fill at ({i}, {j})");
-                    assert_eq!(m[(i, j)], 0.0);
-                }
+        assert!(factor.is_tree());
+        let mut p = DMatrix::<Real>::identity(n, n);
+        let mut q = DMatrix::<Real>::zeros(n, n);
+        for k in 0..n {
+            let start = factor.offsets[k];
+            for (t, &i) in factor.chain(k).iter().enumerate() {
+                p[(i, k)] = factor.column[start + t];
+                q[(k, i)] = factor.row[start + t];
             }
+            q[(k, k)] = factor.pivots[k];
         }
-        // The two legs are not coupled: dof 7 (leg one) and 10 (leg two).
-        assert!(!coupled(&columns, 7, 10));
+        let diff = (&p * &q - &m).amax();
+        assert!(diff <= 1e-5 * m.amax(), "P Q differs from A by {diff}");
+        // Dof 10 (the second leg's hip) has the root's six and dof 9 above it.
+        assert_eq!(factor.chain(10), &[0, 1, 2, 3, 4, 5, 9]);
+        assert_eq!(factor.chain(6), &[0, 1, 2, 3, 4, 5]);
+        assert_eq!(factor.chain(0), &[] as &[usize]);
     }
 }
