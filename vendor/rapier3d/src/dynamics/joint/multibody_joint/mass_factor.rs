@@ -182,6 +182,7 @@ impl MassFactor {
     }
 
     /// Dof `k`'s ancestors, ascending.
+    #[cfg(test)]
     fn chain(&self, k: usize) -> &[usize] {
         &self.chains[self.offsets[k]..self.offsets[k + 1]]
     }

@@ -673,6 +673,14 @@ impl Multibody {
             0
         });
 
+        // Strider patch: a link's body Jacobian is zero outside the columns of its own and
+        // its ancestors' dofs (`link_column_ranges`), so its forces reach only those
+        // generalised forces. Over the other columns upstream's `gemv_tr` added `1·(+0)` (a
+        // dot product of a zero column with finite forces) to an entry that started at +0,
+        // which leaves it unchanged: the same bits (docs/rapier.md, "Mass-matrix sparsity").
+        let mut col_ranges = core::mem::take(&mut self.workspace.col_ranges);
+        link_column_ranges(&self.links, &mut col_ranges);
+
         // Eqn 42 to 45
         for i in 0..self.links.len() {
             let link = &self.links[i];
@@ -727,23 +735,24 @@ impl Multibody {
                 rb.forces.force - rb_mass * acc.linvel,
                 rb.forces.torque - gyroscopic - rb_inertia * acc.angvel,
             );
-            self.accelerations.gemv_tr(
-                1.0,
+            add_transposed_product(
+                &mut self.accelerations,
                 &self.body_jacobians[i],
                 external_forces.as_vector(),
-                1.0,
+                &col_ranges[i],
             );
 
             if check_implicit_coriolis_divergence {
                 let applied_forces = Force::new(rb.forces.force, rb.forces.torque);
-                pos_forces.gemv_tr(
-                    1.0,
+                add_transposed_product(
+                    &mut pos_forces,
                     &self.body_jacobians[i],
                     applied_forces.as_vector(),
-                    1.0,
+                    &col_ranges[i],
                 );
             }
         }
+        self.workspace.col_ranges = col_ranges;
 
         self.accelerations
             .cmpy(-1.0, &self.damping, &self.velocities, 1.0);
@@ -2236,17 +2245,38 @@ impl Multibody {
         if self.ndofs == 0 {
             return;
         }
-        let wj_id = *j_id + self.ndofs;
         let force = Force {
             linear: unit_force,
             angular: unit_torque,
         };
         let link = &self.links[link_id];
-        let mut out_j = jacobians.rows_mut(*j_id, self.ndofs);
-        self.body_jacobians[link.internal_id].tr_mul_to(force.as_vector(), &mut out_j);
-        for i in 0..self.ndofs {
-            jacobians[wj_id + i] = jacobians[*j_id + i];
+        let body_jacobian = &self.body_jacobians[link.internal_id];
+        let (j, n) = (*j_id, self.ndofs);
+        // Strider patch: the body Jacobian is zero outside the columns of the link's own
+        // and its ancestors' dofs (`link_column_ranges`, kept by `update_mass_matrix`,
+        // which runs before any constraint of the step is built), and there upstream's
+        // `tr_mul_to` wrote a dot product of a zero column with a finite wrench: +0, as
+        // written here; inside, each entry is that dot product (docs/rapier.md,
+        // "Mass-matrix sparsity").
+        match self.workspace.col_ranges.get(link.internal_id) {
+            Some(ranges) if self.workspace.col_ranges.len() == self.links.len() => {
+                let out = &mut jacobians.as_mut_slice()[j..j + n];
+                out.fill(0.0);
+                for &(s, m) in ranges {
+                    for c in s..s + m {
+                        out[c] = body_jacobian.column(c).dot(force.as_vector());
+                    }
+                }
+                debug_assert!(
+                    (0..n)
+                        .filter(|c| !ranges.iter().any(|&(s, m)| (s..s + m).contains(c)))
+                        .all(|c| body_jacobian.column(c).iter().all(|v| *v == 0.0)),
+                    "a link's body Jacobian nonzero outside its column ranges"
+                );
+            }
+            _ => body_jacobian.tr_mul_to(force.as_vector(), &mut jacobians.rows_mut(j, n)),
         }
+        jacobians.as_mut_slice().copy_within(j..j + n, j + n);
         *j_id += self.ndofs * 2;
     }
 
@@ -2299,8 +2329,20 @@ impl Multibody {
         // Row-interleaved: entry i of row c at `x[i][c]`, `MAX_ROWS` wide whatever the
         // number of rows (the unused lanes hold zeros and are dropped), so that every
         // loop is a fixed-length one the compiler turns into vector instructions.
-        let mut buffer = [[0.0 as Real; MAX_ROWS]; MAX_DOFS];
-        let x = &mut buffer[..n];
+        // Only the `n` rows in use are zeroed (the whole buffer is 3 kB, and a contact's
+        // rows are solved every step).
+        let mut buffer = [const { core::mem::MaybeUninit::<[Real; MAX_ROWS]>::uninit() }; MAX_DOFS];
+        for row in &mut buffer[..n] {
+            row.write([0.0; MAX_ROWS]);
+        }
+        // SAFETY: the first `n` rows were written just above (`n <= MAX_DOFS`: `batched`),
+        // and `MaybeUninit<T>` has `T`'s layout.
+        let x = unsafe {
+            &mut *core::ptr::slice_from_raw_parts_mut(
+                buffer.as_mut_ptr().cast::<[Real; MAX_ROWS]>(),
+                n,
+            )
+        };
         for (c, &j_id) in j_ids.iter().enumerate() {
             let row = &jacobians.as_slice()[j_id + n..j_id + 2 * n];
             for (xi, v) in x.iter_mut().zip(row) {
@@ -2596,6 +2638,20 @@ fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usiz
                 _ => link_ranges.push(own),
             }
         }
+    }
+}
+
+/// `y += Jᵀ w` over the columns `ranges` of `j` (a link's, from [`link_column_ranges`]),
+/// each entry by nalgebra's `gemv_tr` as upstream computed it over all columns: outside
+/// `ranges` that added `1·(+0)` to an entry that started at +0, which changes nothing.
+fn add_transposed_product(
+    y: &mut DVector,
+    j: &Jacobian<Real>,
+    w: &SVector<Real, SPATIAL_DIM>,
+    ranges: &[(usize, usize)],
+) {
+    for &(s, n) in ranges {
+        y.rows_mut(s, n).gemv_tr(1.0, &j.columns(s, n), w, 1.0);
     }
 }
 
@@ -3758,6 +3814,58 @@ mod test {
                 assert!(diff <= 1.0e-4 * scale, "{links} links: {diff} of {scale}");
                 assert_ne!(x, b);
             }
+        }
+    }
+
+    /// Strider patch: a contact row's `Jᵀ f` (`fill_jacobians_unsolved`) and the
+    /// generalised forces of `update_acceleration` (`add_transposed_product`), computed
+    /// over each link's nonzero columns only, have the bits of upstream's products over
+    /// all columns (`tr_mul_to`, `gemv_tr`), with wrenches whose negative components make
+    /// the zero columns' terms -0.
+    #[cfg(feature = "dim3")]
+    #[test]
+    fn sparse_link_products_match_the_dense_ones() {
+        let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let wrenches = [
+            (Vector::new(0.3, -1.2, 0.7), Vector::new(-0.4, -0.1, -2.0)),
+            (
+                Vector::new(-1.0, -1.0, -1.0),
+                Vector::new(-0.5, -0.25, -3.0),
+            ),
+        ];
+        for links in 1..=4 {
+            let (bodies, mut mb) = moving_tree(links);
+            mb.update_mass_matrix(1.0 / 240.0, &bodies);
+            let n = mb.ndofs();
+            let mut sparse_sum = DVector::zeros(n);
+            let mut dense_sum = DVector::zeros(n);
+            let mut zero_columns = 0;
+            for link_id in 0..mb.links.len() {
+                let jacobian = &mb.body_jacobians[mb.links[link_id].internal_id];
+                for (f, t) in wrenches {
+                    let wrench = super::Force::new(f, t);
+                    let mut dense = DVector::zeros(n);
+                    jacobian.tr_mul_to(wrench.as_vector(), &mut dense);
+                    zero_columns += dense.iter().filter(|x| **x == 0.0).count();
+                    let mut rows = DVector::from_element(3 + 2 * n, 7.0);
+                    let mut j_id = 3;
+                    mb.fill_jacobians_unsolved(link_id, f, t, &mut j_id, &mut rows);
+                    assert_eq!(j_id, 3 + 2 * n);
+                    assert_eq!(bits(&rows.as_slice()[3..3 + n]), bits(dense.as_slice()));
+                    assert_eq!(bits(&rows.as_slice()[3 + n..]), bits(dense.as_slice()));
+
+                    let ranges = &mb.workspace.col_ranges[link_id];
+                    super::add_transposed_product(
+                        &mut sparse_sum,
+                        jacobian,
+                        wrench.as_vector(),
+                        ranges,
+                    );
+                    dense_sum.gemv_tr(1.0, jacobian, wrench.as_vector(), 1.0);
+                    assert_eq!(bits(sparse_sum.as_slice()), bits(dense_sum.as_slice()));
+                }
+            }
+            assert!(zero_columns > 0, "{links} links: every column nonzero");
         }
     }
 
