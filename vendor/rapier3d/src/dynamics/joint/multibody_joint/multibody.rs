@@ -252,6 +252,9 @@ impl Clone for Multibody {
         if !self.workspace.same_sizes(workspace) {
             self.workspace = workspace.clone();
         }
+        // Read across calls within a step (`fill_jacobians_unsolved`): never another
+        // tree's of the same sizes.
+        self.workspace.col_ranges.clone_from(&workspace.col_ranges);
     }
 }
 

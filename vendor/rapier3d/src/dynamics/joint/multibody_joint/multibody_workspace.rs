@@ -9,6 +9,9 @@ pub(crate) struct MultibodyWorkspace {
     pub accs: Vec<RigidBodyVelocity<Real>>,
     pub ndofs_vec: DVector,
     /// Strider patch: each link's nonzero body-Jacobian column ranges `(start, len)`.
+    /// Written by `update_mass_matrix` (and `update_acceleration`) and read by
+    /// `fill_jacobians_unsolved` later in the same step; a copy (`Clone`) has none, so it
+    /// takes the dense products until then, and `Multibody::clone_from` copies them.
     pub col_ranges: Vec<Vec<(usize, usize)>>,
     /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
     /// apart: it runs before `update_mass_matrix`, and not always with it). Scratch: valid
