@@ -335,8 +335,10 @@ mod tests {
         // One candidate at a time on three threads: two are idle, and take the later
         // confirming trials (crate::help). Designs that pass every one (the holder waits
         // for the helpers' verdicts), fail the first floor (the helpers' trials are
-        // abandoned), the second, and the finer step (the last: a helper's verdict).
-        let ctx = EvalContext::paper();
+        // abandoned), the second, and the finer step (the last: a helper's verdict; on
+        // here, off by default).
+        let mut ctx = EvalContext::paper();
+        ctx.limits.confirm_substeps_factor = 2;
         let pool = SimPool::new(NonZeroUsize::new(3).unwrap()).unwrap();
         let cores = Arc::new(Semaphore::new(3));
         let verdict = |o: &Outcome| match o {

@@ -27,10 +27,12 @@ fn ctx() -> EvalContext {
 }
 
 /// The paper's context without the friction margin's floors and the shove (on by default
-/// since docs/model.md section 6's gated run): the trial as runs made before it judged.
+/// since docs/model.md section 6's gated run), confirmed at twice the physics steps (off
+/// by default since 2026-11-30): the trial as runs made before the gate judged.
 fn ungated() -> EvalContext {
     let mut c = ctx();
     (c.limits.friction_margin, c.limits.push_speed) = (0.0, 0.0);
+    c.limits.confirm_substeps_factor = 2;
     c
 }
 
@@ -1053,6 +1055,7 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
     let g = fixture("meets_the_brief_at_the_finer_step_then_falls.json");
     let mut finer_step_only = robust;
     finer_step_only.limits.friction_margin = 0.0;
+    finer_step_only.limits.confirm_substeps_factor = 2;
     match evaluate(
         &finer_step_only,
         &g,
