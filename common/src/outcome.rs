@@ -290,7 +290,7 @@ impl Shortfall {
     /// What it means, in a sentence a designer reads (the report defines each word).
     pub fn meaning(self) -> &'static str {
         match self {
-            Shortfall::StepSensitive => "met the brief at the run's physics step but not at the finer step that confirms every feasible design",
+            Shortfall::StepSensitive => "met the brief at the run's physics step but not at a finer one ([trial] confirm_substeps_factor)",
             Shortfall::FrictionSensitive => "met the brief on the run's floor but not on one with less or more grip ([trial] friction_margin)",
             Shortfall::Speed => "walked the whole trial upright and forward, slower than the brief's minimum speed",
             Shortfall::Backward => "stayed upright to the end but did not move forward",
