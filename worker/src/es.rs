@@ -11,9 +11,10 @@
 //! stopped before simulating. A fallen child thus ranks below every child that stayed up.
 //! Plain fitness comparison would leave the strategy blind until a child passed the brief.
 //!
-//! A child feasible at the run's step that does not beat its parent is not confirmed at the
-//! finer step (`evaluate_controller_against`): the confirmation could only lower it, so the
-//! strategy's path and result are those of confirming every child.
+//! A child feasible at the run's step that does not beat its parent is not put through its
+//! confirming trials (the floors, and the finer step where set;
+//! `evaluate_controller_against`): they could only lower it, so the strategy's path and
+//! result are those of confirming every child.
 
 use crate::trial_outcome::{evaluate_controller, evaluate_controller_against};
 use rand::Rng;

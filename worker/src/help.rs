@@ -1,8 +1,8 @@
 //! Idle simulation threads help the thread that holds a candidate with its confirming
 //! trials.
 //!
-//! A design feasible at the run's step is tried again on two floors and at the finer step
-//! (`trial_outcome`): trials in a fixed order, the first refusal ending it, most of a late
+//! A design feasible at the run's step is tried again on two floors, and at a finer step
+//! where `[trial] confirm_substeps_factor` asks it (`trial_outcome`): trials in a fixed order, the first refusal ending it, most of a late
 //! search's simulation and, run one after another, the longest chain a generation waits
 //! for. When a simulation thread of the same pool has nothing to do (the end of a
 //! generation, or more cores than candidates), or runs a trial drawn ahead of its
@@ -14,9 +14,10 @@
 //! counts (an earlier one refused, or the holder panicked) is abandoned at its next
 //! control step; the time it ran is the price, paid by a thread that had nothing to do.
 //!
-//! One helper a candidate: the floors (two trials) on the holder beside the finer step (one
-//! trial of twice the steps) on the helper take about as long each, and a second helper
-//! would only run ahead of a refusal.
+//! One helper a candidate: at the defaults the holder runs the first floor and the helper
+//! the second; with the finer step on, the floors (two trials) on the holder beside the
+//! finer step (one trial of twice the steps) on the helper take about as long each. A
+//! second helper would only run ahead of a refusal.
 //!
 //! Help is offered only on threads of a pool that [`install`]ed itself (the worker's
 //! simulation threads); anywhere else (`fidelity`, `eval`, `verify`'s batch) the holder

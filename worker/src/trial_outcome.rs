@@ -13,8 +13,8 @@ use strider_common::{
 
 /// Evaluates one morphology with one controller: static checks, trial, speed check, and,
 /// for a design feasible at the run's step, the same trial on floors with more and less
-/// grip (`[trial] friction_margin`) and at the finer confirming step (`[trial]
-/// confirm_substeps_factor`). The outcome's figures are the run's trial's: the confirming trials
+/// grip (`[trial] friction_margin`) and, where `[trial] confirm_substeps_factor` is more
+/// than 1 (not by default), at a finer step. The outcome's figures are the run's trial's: the confirming trials
 /// only decide whether they stand.
 pub fn evaluate_controller(
     ctx: &EvalContext,
@@ -53,8 +53,8 @@ pub fn evaluate_controller_to_enter(
 /// not, since the stay-up window and the confirming trials can only keep its standing or
 /// lower it. Against a feasible parent, a child fast enough and no fitter ends at the
 /// trial's end (its window not run); any other child that does not beat its parent is
-/// judged as [`evaluate_controller`] would, without the confirming trials (the finer
-/// step's, twice the steps of the first, and the floors' of `[trial] friction_margin`).
+/// judged as [`evaluate_controller`] would, without the confirming trials (the floors' of
+/// `[trial] friction_margin`, and the finer step's where `confirm_substeps_factor` asks it).
 /// The strategy's path is that of judging every child in full.
 pub fn evaluate_controller_against(
     ctx: &EvalContext,
@@ -76,7 +76,8 @@ pub fn evaluate_controller_against(
 
 /// `outcome` (the run's trial) if it is not feasible or every confirming trial finds it
 /// feasible too: on the floor with more grip and the one with less (else invalid,
-/// `friction_sensitive`), then at the finer step (else `step_sensitive`). The first that
+/// `friction_sensitive`), then, where `confirm_substeps_factor` is more than 1, at the finer
+/// step (else `step_sensitive`). The first that
 /// fails ends it, so a design that fails pays only the trials up to that one. An idle
 /// simulation thread may run the last meanwhile (crate::help): the verdict is the same,
 /// the answer comes sooner, and a trial it ran that no longer counts was that thread's

@@ -123,8 +123,8 @@ pub struct TrialLimits {
     /// otherwise it is invalid, `step_sensitive`. 1 (the default since 2026-11-30) turns
     /// the confirmation off. Why off: behind the floors it refused 2.3 % of the designs
     /// that reached it, most of which PyBullet keeps upright too, for 19 % of a full-size
-    /// run's simulation (docs/model.md section 6, "Confirmed at a finer step"); 2 buys
-    /// that check back.
+    /// run's simulation (docs/model.md section 6, "Off by default since 2026-11-30"); 2
+    /// buys that check back.
     pub confirm_substeps_factor: u32,
     /// A shove at the trial's end for a design fast enough to meet the brief: the whole
     /// robot's sideways velocity changes by this much, m/s (0: none), before the long

@@ -146,7 +146,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
             "such a candidate"
         };
         outln!(
-            "a design that meets the brief and is fitter than its cell's elite{walks}{again}: {meeting_trials} trials' time of {meeting_trial} s against {plain_trial} s for one that misses the brief, up to {meeting_cost:.1} trials' time in all for {who}, not in the figures below (for scale, BENCHMARKS.md: in the 1000-generation STATIC run at the paper's brief, 3 % of the candidates met the brief and were fitter, and took 41 % of the simulation; late in a full-size run, 7 % and 71 %)"
+            "a design that meets the brief and is fitter than its cell's elite{walks}{again}: {meeting_trials} trials' time of {meeting_trial} s against {plain_trial} s for one that misses the brief, up to {meeting_cost:.1} trials' time in all for {who}, not in the figures below (for scale, BENCHMARKS.md: in the full-size STATIC run at the paper's brief and the defaults, 1.6 % of the first 1000 generations' candidates met the brief and were fitter, and took 18 % of the simulation; late in it, 5.7 % and 49 %)"
         );
     }
     // What it costs: every trial (an ES candidate is many) at the cost of one that walks
@@ -208,7 +208,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         }
     };
     outln!(
-        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current build in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials) to 1.5x (the quick experiment, started from designs that meet it) of this figure, 2.3x a search started from 200 such designs",
+        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current build and defaults in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials), 0.9x (the full-size STATIC run) and 1.2x (the quick experiment, started from designs that meet it) of this figure",
         cores,
         hours_text(all_walked / 3600.0),
         thread_seconds * 1e3,

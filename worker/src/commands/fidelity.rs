@@ -56,8 +56,8 @@ pub struct FidelityArgs {
     threads: Option<NonZeroUsize>,
     /// Take settings, brief and features from this experiment file (paper defaults
     /// otherwise). Every setting is judged with its `[trial] speed_margin` (0.05 by default),
-    /// as a run's own trial is; a run's confirming trials (finer step, floors) ask the brief
-    /// as written: give a file with `speed_margin = 0` to see their verdict.
+    /// as a run's own trial is; a run's confirming trials (the floors, and the finer step where
+    /// set) ask the brief as written: give a file with `speed_margin = 0` to see their verdict.
     #[arg(long)]
     experiment: Option<PathBuf>,
     /// Print JSON instead of a table.
