@@ -98,9 +98,10 @@ fn batch(c: &mut Criterion) {
 }
 
 /// One design that passes every confirming trial (both floors at the defaults, about 60
-/// simulated seconds in all; 100 with the finer step, `confirm_substeps_factor = 2`): its answer alone on the calling thread, and from a pool of
-/// two simulation threads whose other thread is idle and helps (strider_worker::help), as
-/// at the end of a generation or on a worker with more cores than candidates.
+/// simulated seconds in all; 100 with the finer step, `confirm_substeps_factor = 2`): its
+/// answer alone on the calling thread, and from a pool of two simulation threads whose
+/// other thread is idle and helps (strider_worker::help), as at the end of a generation or
+/// on a worker with more cores than candidates.
 fn confirmed(c: &mut Criterion) {
     let ctx = EvalContext::paper();
     let genome = Genome::load(

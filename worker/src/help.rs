@@ -2,17 +2,18 @@
 //! trials.
 //!
 //! A design feasible at the run's step is tried again on two floors, and at a finer step
-//! where `[trial] confirm_substeps_factor` asks it (`trial_outcome`): trials in a fixed order, the first refusal ending it, most of a late
-//! search's simulation and, run one after another, the longest chain a generation waits
-//! for. When a simulation thread of the same pool has nothing to do (the end of a
-//! generation, or more cores than candidates), or runs a trial drawn ahead of its
-//! generation (which the open generation's end matters more than), it takes the last of
-//! those trials, once free, while the holder runs them from the first. The answer is the
-//! one the holder alone would give, bit for bit: each trial is a function of the design
-//! and its settings, and the verdict is the first refusal in the fixed order whoever ran
-//! which. A helper's trial that no longer
-//! counts (an earlier one refused, or the holder panicked) is abandoned at its next
-//! control step; the time it ran is the price, paid by a thread that had nothing to do.
+//! where `[trial] confirm_substeps_factor` asks it (`trial_outcome`): trials in a fixed
+//! order, the first refusal ending it, most of a late search's simulation and, run one
+//! after another, the longest chain a generation waits for. When a simulation thread of
+//! the same pool has nothing to do (the end of a generation, or more cores than
+//! candidates), or runs a trial drawn ahead of its generation (which the open
+//! generation's end matters more than), it takes the last of those trials, once free,
+//! while the holder runs them from the first. The answer is the one the holder alone
+//! would give, bit for bit: each trial is a function of the design and its settings, and
+//! the verdict is the first refusal in the fixed order whoever ran which. A helper's trial
+//! that no longer counts (an earlier one refused, or the holder panicked) is abandoned at
+//! its next control step; the time it ran is the price, paid by a thread that had nothing
+//! to do.
 //!
 //! One helper a candidate: at the defaults the holder runs the first floor and the helper
 //! the second; with the finer step on, the floors (two trials) on the holder beside the

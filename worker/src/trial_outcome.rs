@@ -14,8 +14,8 @@ use strider_common::{
 /// Evaluates one morphology with one controller: static checks, trial, speed check, and,
 /// for a design feasible at the run's step, the same trial on floors with more and less
 /// grip (`[trial] friction_margin`) and, where `[trial] confirm_substeps_factor` is more
-/// than 1 (not by default), at a finer step. The outcome's figures are the run's trial's: the confirming trials
-/// only decide whether they stand.
+/// than 1 (not by default), at a finer step. The outcome's figures are the run's trial's:
+/// the confirming trials only decide whether they stand.
 pub fn evaluate_controller(
     ctx: &EvalContext,
     genome: &Genome,
@@ -77,8 +77,8 @@ pub fn evaluate_controller_against(
 /// `outcome` (the run's trial) if it is not feasible or every confirming trial finds it
 /// feasible too: on the floor with more grip and the one with less (else invalid,
 /// `friction_sensitive`), then, where `confirm_substeps_factor` is more than 1, at the finer
-/// step (else `step_sensitive`). The first that
-/// fails ends it, so a design that fails pays only the trials up to that one. An idle
+/// step (else `step_sensitive`). The first that fails ends it, so a design that fails pays
+/// only the trials up to that one. An idle
 /// simulation thread may run the last meanwhile (crate::help): the verdict is the same,
 /// the answer comes sooner, and a trial it ran that no longer counts was that thread's
 /// idle time.
