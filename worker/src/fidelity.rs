@@ -197,7 +197,7 @@ fn compared_with(settings: &[Setting], s: usize) -> usize {
 impl Study {
     /// Evaluates `genomes` under `scheme` at every setting (`ctx` gives everything else)
     /// and compares each setting after the first with the one it varies from
-    /// ([`compared_with`]).
+    /// (`compared_with`).
     pub fn run(
         ctx: &EvalContext,
         genomes: &[Genome],
