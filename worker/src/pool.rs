@@ -167,8 +167,9 @@ impl<K: Send + 'static> SimPool<K> {
         Self::with(threads, evaluate_to_enter)
     }
 
-    /// Starts `threads` threads that run `eval` for each trial ([`answer_trial`]); one
-    /// with nothing to do helps another with its confirming trials (crate::help).
+    /// Starts `threads` threads that run `eval` for each trial (a panic answered, not
+    /// lost); one with nothing to do helps another with its confirming trials
+    /// (crate::help).
     pub fn with(threads: NonZeroUsize, eval: Evaluate) -> std::io::Result<Self> {
         let queue = Arc::new(Queue::new());
         for i in 0..threads.get() {
