@@ -44,6 +44,18 @@ else:
 out = args.out or tempfile.mkdtemp(prefix="pybullet-agreement-")
 os.makedirs(out, exist_ok=True)
 
+
+
+def replay(base, *extra):
+    """pybullet_replay.py's report on the design written at `base`, with this run's
+    settings and `extra` arguments."""
+    return json.loads(subprocess.run(
+        [sys.executable, os.path.join(here, "pybullet_replay.py"), base + ".urdf",
+         base + ".start_pose.json", base + ".csv", "--hz", str(args.hz),
+         "--friction", str(args.friction), "--cone", str(args.cone), *extra],
+        check=True, capture_output=True, text=True).stdout)
+
+
 completed = upright = close = 0
 for i, g in enumerate(genomes):
     base = os.path.join(out, f"d{i}")
@@ -63,23 +75,14 @@ for i, g in enumerate(genomes):
         row["our_distance_m"] = stats["distance"]
         row["our_energy_j"] = stats["energy"]
         row["our_feet"] = stats.get("gait")
-        theirs = json.loads(subprocess.run(
-            [sys.executable, os.path.join(here, "pybullet_replay.py"), base + ".urdf",
-             base + ".start_pose.json", base + ".csv", "--hz", str(args.hz),
-             "--friction", str(args.friction), "--cone", str(args.cone)],
-            check=True, capture_output=True, text=True).stdout)
+        theirs = replay(base)
         row["pybullet"] = theirs
         ended = theirs.get("ended") or {}
         if ended.get("how") == "tilted" and ended["degrees"] < 45.0:
             # A replay stops on the step the tilt first passes the window's limit, so its
             # reading is always just past 20 degrees: run on to 45 to tell a fall from a
             # lean that comes back (docs/model.md section 6, "A tilt read just past 20°").
-            on = json.loads(subprocess.run(
-                [sys.executable, os.path.join(here, "pybullet_replay.py"), base + ".urdf",
-                 base + ".start_pose.json", base + ".csv", "--hz", str(args.hz),
-                 "--friction", str(args.friction), "--cone", str(args.cone),
-                 "--after-max-tilt", "45"],
-                check=True, capture_output=True, text=True).stdout)
+            on = replay(base, "--after-max-tilt", "45")
             row["pybullet_run_on"] = {"fell": not on["upright"], "ended": on["ended"],
                                       "max_tilt_degrees": on["max_tilt_degrees"]}
         if theirs["upright"]:
