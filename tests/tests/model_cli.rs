@@ -161,11 +161,10 @@ fn check_lists_the_paper_runs() {
     );
     assert!(text.contains("trials of MAX to their end in"), "{text}");
     // A design that meets the brief costs more: its window and confirming trials are
-    // said, and what they come to: 3 trials' time of 20 s (the trial and its 15-s
-    // window) against the 6 s of one that misses the brief (the finer step's
-    // confirmation is off by default).
+    // said, and what they come to: 5 trials' time of 20 s (the trial and its 15-s
+    // window) against the 6 s of one that misses the brief.
     assert!(
-        text.contains("a design that meets the brief and is fitter than its cell's elite walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a trial (under ES, every child that meets the brief and beats its parent)"),
+        text.contains("a design that meets the brief and is fitter than its cell's elite walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time), each with that window: 5 trials' time of 20 s against 6 s for one that misses the brief, up to 16.7 trials' time in all for such a trial (under ES, every child that meets the brief and beats its parent)"),
         "{text}"
     );
     // The figure is not called a bound: it is not one.
@@ -211,8 +210,10 @@ fn check_text(file: &str, trial: &str) -> String {
 
 #[test]
 fn check_says_what_the_confirming_floors_cost() {
-    // The defaults: the floors, the finer step's confirmation off.
-    let text = check_text("floors.toml", "friction_margin = 0.25\n");
+    let text = check_text(
+        "floors.toml",
+        "friction_margin = 0.25\nconfirm_substeps_factor = 1\n",
+    );
     // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
     assert!(
         text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a candidate"),
@@ -220,10 +221,7 @@ fn check_says_what_the_confirming_floors_cost() {
     );
     assert!(!text.contains("physics steps ("), "{text}");
     // The finer step alone.
-    let text = check_text(
-        "finer.toml",
-        "friction_margin = 0.0\nconfirm_substeps_factor = 2\n",
-    );
+    let text = check_text("finer.toml", "friction_margin = 0.0\n");
     assert!(
         text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all"),
         "{text}"
@@ -231,10 +229,7 @@ fn check_says_what_the_confirming_floors_cost() {
     // No ES here, so nothing said of ES candidates.
     assert!(!text.contains("ES"), "{text}");
     // No long window: the confirmations alone, and no window named.
-    let text = check_text(
-        "nowindow.toml",
-        "upright_after_feasible_seconds = 0\nconfirm_substeps_factor = 2\n",
-    );
+    let text = check_text("nowindow.toml", "upright_after_feasible_seconds = 0\n");
     assert!(
         text.contains("fitter than its cell's elite is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time): 5 trials' time of 6 s against 6 s for one that misses the brief, up to 5.0 trials' time in all"),
         "{text}"

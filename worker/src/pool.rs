@@ -337,7 +337,7 @@ mod tests {
         // confirming trials (crate::help). Designs that pass every one (the holder waits
         // for the helpers' verdicts), fail the first floor (the helpers' trials are
         // abandoned), the second, and the finer step (the last: a helper's verdict; on
-        // here, off by default).
+        // by default, said here so that a change of default keeps it).
         let mut ctx = EvalContext::paper();
         ctx.limits.confirm_substeps_factor = 2;
         let pool = SimPool::new(NonZeroUsize::new(3).unwrap()).unwrap();

@@ -27,8 +27,9 @@ fn ctx() -> EvalContext {
 }
 
 /// The paper's context without the friction margin's floors and the shove (on by default
-/// since docs/model.md section 6's gated run), confirmed at twice the physics steps (off
-/// by default since 2026-11-30): the trial as runs made before the gate judged.
+/// since docs/model.md section 6's gated run), confirmed at twice the physics steps (the
+/// default, said here so that a change of default keeps it): the trial as runs made
+/// before the gate judged.
 fn ungated() -> EvalContext {
     let mut c = ctx();
     (c.limits.friction_margin, c.limits.push_speed) = (0.0, 0.0);
