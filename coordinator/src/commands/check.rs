@@ -208,7 +208,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         }
     };
     outln!(
-        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current build and defaults in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials), 0.9x (the full-size STATIC run) and 1.2x (the quick experiment, started from designs that meet it) of this figure",
+        "time on this machine's {} cores: {} if every trial walks to its end and none meets the brief ({:.1} ms of one core a trial, {source}); an estimate, not a bound: many trials end sooner in a fall or are settled without one (about half of a STATIC run's first 1000 generations, few late in a run), and a design that meets the brief costs more (above); runs at the current trial and defaults in BENCHMARKS.md took 0.4x (the three-scheme comparison, where this figure counts each candidate of the evolution strategy as 21 whole trials), 1.1x (the full-size STATIC run) and 1.6x to 1.8x (the quick experiment, started from designs that meet it) of this figure",
         cores,
         hours_text(all_walked / 3600.0),
         thread_seconds * 1e3,
