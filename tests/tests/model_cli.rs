@@ -156,7 +156,7 @@ fn check_lists_the_paper_runs() {
         "{text}"
     );
     assert!(
-        text.contains("  static  20 runs x 240400 candidates x 1 trials = 4808000 trials, "),
+        text.contains("  static  20 runs x 240400 candidates x 1 trial = 4808000 trials, "),
         "{text}"
     );
     assert!(text.contains("trials of MAX to their end in"), "{text}");

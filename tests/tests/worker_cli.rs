@@ -289,3 +289,19 @@ fn reference_trial_prints_the_digest_a_coordinator_compares() {
         )
     );
 }
+
+#[test]
+fn eval_says_what_a_feasible_design_passed_besides_its_trial() {
+    // A design that meets the brief at the defaults: the table names the long window and
+    // the confirming trials it passed, so a user reading "valid" knows what was checked.
+    let out = run(
+        "strider-worker",
+        &["eval", "worker/tests/fixtures/walks_on_every_floor.json"],
+    );
+    let text = stdout(&out);
+    assert!(text.contains("outcome            valid"), "{text}");
+    assert!(
+        text.contains("checked            stayed up 15 s after the trial; met the brief as written again on floors of friction 0.6 and 1 and at 480 Hz"),
+        "{text}"
+    );
+}

@@ -215,9 +215,11 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
     );
     for (scheme, n, scheme_trials) in &by_scheme {
         outln!(
-            "  {:<7} {n} runs x {per_run} candidates x {} trials = {scheme_trials} trials, {} at that figure",
+            "  {:<7} {n} run{} x {per_run} candidates x {} trial{} = {scheme_trials} trials, {} at that figure",
             scheme.name(),
+            if *n == 1 { "" } else { "s" },
             trials_per_candidate(*scheme),
+            if trials_per_candidate(*scheme) == 1 { "" } else { "s" },
             hours_text(*scheme_trials as f64 * thread_seconds / cores.get() as f64 / 3600.0)
         );
     }

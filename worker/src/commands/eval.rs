@@ -124,7 +124,7 @@ pub fn execute(args: EvalArgs) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&outcome).context("serialising the outcome")?
         );
     } else {
-        print_outcome(&outcome)?;
+        print_outcome(&outcome, &ctx)?;
     }
     Ok(())
 }
@@ -146,7 +146,7 @@ fn outcome_summary(o: &Outcome) -> String {
     }
 }
 
-fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
+fn print_outcome(o: &Outcome, ctx: &EvalContext) -> anyhow::Result<()> {
     outln!("outcome            {}", o.kind());
     if let Some(s) = o.stats() {
         outln!("distance           {:.3} m", s.distance);
@@ -165,6 +165,7 @@ fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
             outln!("fitness            {fitness:.4}");
             outln!("features           {:?}", features.0);
             outln!("cell               {}", cell.0);
+            outln!("checked            {}", checks_passed(ctx));
         }
         Outcome::Rejected { violations, .. } => {
             for v in violations {
@@ -183,4 +184,33 @@ fn print_outcome(o: &Outcome) -> anyhow::Result<()> {
         serde_json::to_string(c).expect("controller serialises")
     );
     Ok(())
+}
+
+/// What a feasible design passed besides its trial: the long window and the confirming
+/// trials of the run's settings (docs/model.md section 6).
+fn checks_passed(ctx: &EvalContext) -> String {
+    let l = &ctx.limits;
+    let mut said = vec![format!(
+        "stayed up {} s after the trial",
+        l.upright_after_feasible_seconds
+            .max(l.upright_after_seconds)
+    )];
+    let mut again = Vec::new();
+    if let Some([less, more]) = l.confirming_floors(ctx.settings.friction) {
+        again.push(format!("on floors of friction {less} and {more}"));
+    }
+    if l.confirm_substeps_factor > 1 {
+        again.push(format!(
+            "at {} Hz",
+            ctx.settings.control_hz
+                * f64::from(ctx.settings.physics_substeps * l.confirm_substeps_factor)
+        ));
+    }
+    if !again.is_empty() {
+        said.push(format!(
+            "met the brief as written again {}",
+            again.join(" and ")
+        ));
+    }
+    said.join("; ")
 }

@@ -17,8 +17,9 @@ use strider_process::default_threads;
 #[derive(clap::Args)]
 pub struct FidelityArgs {
     /// Designs from a file: `export --format json` output (every run's elites, and with
-    /// `--infeasible` the infeasible library's too), a JSON array of genomes, or one genome
-    /// per line.
+    /// `--infeasible` the infeasible library's too), one genome (`export --elite ...
+    /// --genome` output, `designs/max.json`), a JSON array of genomes, or one genome per
+    /// line.
     #[arg(long)]
     genomes: Option<PathBuf>,
     /// Take the infeasible elites of an export too.
@@ -68,7 +69,7 @@ pub struct FidelityArgs {
     csv: Option<PathBuf>,
 }
 
-/// Genomes from an export, an array or JSON lines.
+/// Genomes from an export, one genome, an array or JSON lines.
 fn load_genomes(path: &Path, infeasible: bool) -> anyhow::Result<Vec<Genome>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
@@ -78,11 +79,23 @@ fn load_genomes(path: &Path, infeasible: bool) -> anyhow::Result<Vec<Genome>> {
     };
     let mut out = Vec::new();
     match serde_json::from_str::<serde_json::Value>(&text) {
+        Ok(serde_json::Value::Object(ref object)) if !object.contains_key("runs") => {
+            if !object.contains_key("morphology") {
+                anyhow::bail!(
+                    "{}: neither an export (no \"runs\") nor a genome (no \"morphology\")",
+                    path.display()
+                );
+            }
+            out.push(parse(
+                &serde_json::Value::Object(object.clone()),
+                "the file",
+            )?);
+        }
         Ok(serde_json::Value::Object(export)) => {
             let runs = export
                 .get("runs")
                 .and_then(|r| r.as_array())
-                .with_context(|| format!("{}: no \"runs\" (not an export)", path.display()))?;
+                .with_context(|| format!("{}: \"runs\" is not a list", path.display()))?;
             for (r, run) in runs.iter().enumerate() {
                 let mut tables = vec!["elites"];
                 if infeasible {
@@ -221,4 +234,33 @@ pub fn execute(args: FidelityArgs) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
     }
     emit(&study, args.json)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("strider-fidelity-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn one_genome_file_is_one_design_and_other_objects_are_refused_by_what_they_lack() {
+        let max = serde_json::to_string(&strider_common::reference::max()).unwrap();
+        let one = load_genomes(&file("one.json", &max), false).unwrap();
+        assert_eq!(one, vec![strider_common::reference::max()]);
+        let array = load_genomes(&file("array.json", &format!("[{max},{max}]")), false).unwrap();
+        assert_eq!(array.len(), 2);
+        let err = load_genomes(&file("other.json", "{\"name\": 1}"), false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("neither an export (no \"runs\") nor a genome (no \"morphology\")"),
+            "{err}"
+        );
+    }
 }
