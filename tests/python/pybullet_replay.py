@@ -248,8 +248,11 @@ else:
     def rel(theirs, mine):
         return f"{100.0 * (theirs - mine) / abs(mine):+.1f} %" if mine else "n/a"
 
+    # The body frame's travel, which both traces carry; `eval`'s distance and the JSON's
+    # distance_m are the centre of mass's, a few centimetres apart.
     print(f"strider (the trace, over the {args.trial_seconds:g}-s trial): body forward "
-          f"{our_x:.3f} m, energy {our_energy:.1f} J", file=sys.stderr)
+          f"{our_x:.3f} m (the body frame; eval's distance is the centre of mass's), "
+          f"energy {our_energy:.1f} J", file=sys.stderr)
     how = "upright through the trial and the window" if ended is None else (
         f"{ended['how']} at {ended['at_time']:.2f} s")
     print(f"pybullet ({args.hz:g} Hz): {how}; body forward {their_x:.3f} m "

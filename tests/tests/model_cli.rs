@@ -144,7 +144,7 @@ fn check_lists_the_paper_runs() {
     // What it will cost: 60 x (400 + 240,000) candidates; ES candidates are 21 trials each.
     assert!(
         text.contains(
-            "cost: 14424000 candidates, 110584000 trials (an ES candidate is up to 21 trials)"
+            "cost: 14424000 candidates, 110584000 trials (an ES candidate is up to 21 trials); an initial random design refused before its trial (mass, height, start pose) is drawn again, stored but not counted here"
         ),
         "{text}"
     );

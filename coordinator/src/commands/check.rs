@@ -171,7 +171,7 @@ pub fn execute(args: CheckArgs) -> anyhow::Result<Exit> {
         .collect();
     let trials: u64 = by_scheme.iter().map(|s| s.2).sum();
     outln!(
-        "cost: {} candidates, {} trials{}{}",
+        "cost: {} candidates, {} trials{}{}; an initial random design refused before its trial (mass, height, start pose) is drawn again, stored but not counted here",
         per_run * runs.len() as u64,
         trials,
         if e.schemes.contains(&strider_common::Scheme::Es) {
