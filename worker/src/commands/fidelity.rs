@@ -79,23 +79,19 @@ fn load_genomes(path: &Path, infeasible: bool) -> anyhow::Result<Vec<Genome>> {
     };
     let mut out = Vec::new();
     match serde_json::from_str::<serde_json::Value>(&text) {
-        Ok(serde_json::Value::Object(ref object)) if !object.contains_key("runs") => {
-            if !object.contains_key("morphology") {
-                anyhow::bail!(
-                    "{}: neither an export (no \"runs\") nor a genome (no \"morphology\")",
-                    path.display()
-                );
-            }
-            out.push(parse(
-                &serde_json::Value::Object(object.clone()),
-                "the file",
-            )?);
+        Ok(genome) if genome.get("morphology").is_some() => {
+            out.push(parse(&genome, "the file")?);
         }
         Ok(serde_json::Value::Object(export)) => {
             let runs = export
                 .get("runs")
                 .and_then(|r| r.as_array())
-                .with_context(|| format!("{}: \"runs\" is not a list", path.display()))?;
+                .with_context(|| {
+                    format!(
+                        "{}: neither an export (no \"runs\") nor a genome (no \"morphology\")",
+                        path.display()
+                    )
+                })?;
             for (r, run) in runs.iter().enumerate() {
                 let mut tables = vec!["elites"];
                 if infeasible {
