@@ -1,6 +1,6 @@
 //! The deployment files pass their standard validators: systemd units
 //! (`systemd-analyze verify`), Kubernetes manifests (`kubernetes-validate --strict`, the
-//! API schemas), the Slurm script (`shellcheck`); and the Dockerfile builds the way the
+//! API schemas), the Slurm script and the PGO build script (`shellcheck`); and the Dockerfile builds the way the
 //! README says. A missing validator skips its test, saying so (CI installs them all and
 //! sets `STRIDER_REQUIRE_TOOLS`, so there it fails instead).
 
@@ -88,11 +88,13 @@ fn the_kubernetes_manifests_match_the_api_schemas() {
 }
 
 #[test]
-fn the_slurm_script_passes_shellcheck() {
+fn the_shell_scripts_pass_shellcheck() {
     if !installed("shellcheck") {
         return skip_without("shellcheck is not installed (apt-get install shellcheck)");
     }
-    validate(Command::new("shellcheck").arg(deploy("slurm/strider.sbatch")));
+    for script in ["slurm/strider.sbatch", "build-pgo.sh"] {
+        validate(Command::new("shellcheck").arg(deploy(script)));
+    }
 }
 
 #[test]
