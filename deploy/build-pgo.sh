@@ -3,9 +3,10 @@
 # an instrumented build runs the built-in quick experiment once, and its profile steers
 # the optimised build's inlining and code layout. The binaries simulate bit for bit as
 # `cargo build --release`'s do (the compiler changes no arithmetic for a profile; the
-# script checks the reference trial's digest against the instrumented build's), 5 to 11
-# % faster in interleaved runs (BENCHMARKS.md, "Profile-guided optimisation"). About three times as long
-# to build as `cargo build --release`; the binaries land in target/pgo/bin.
+# script checks the reference trial's digest against the instrumented build's), 5 to
+# 11 % faster in interleaved runs (BENCHMARKS.md, "Profile-guided optimisation"). About
+# three times as long to build as `cargo build --release`; the binaries land in
+# target/pgo/bin.
 #
 # Needs rustup's llvm-tools component (`rustup component add llvm-tools`) for the
 # `llvm-profdata` that matches the compiler: a distribution's LLVM of another version
@@ -50,4 +51,4 @@ fi
 for bin in strider-coordinator strider-worker; do
     cp "$work/optimised/$host/release/$bin" "$work/bin/"
 done
-echo "build-pgo.sh: done: $work/bin/strider-coordinator, $work/bin/strider-worker" >&2
+echo "build-pgo.sh: done (reference trial $fast, as the instrumented build's): $work/bin/strider-coordinator, $work/bin/strider-worker" >&2

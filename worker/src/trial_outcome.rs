@@ -14,7 +14,7 @@ use strider_common::{
 /// Evaluates one morphology with one controller: static checks, trial, speed check, and,
 /// for a design feasible at the run's step, the same trial on floors with more and less
 /// grip (`[trial] friction_margin`) and, where `[trial] confirm_substeps_factor` is more
-/// than 1 (not by default), at a finer step. The outcome's figures are the run's trial's:
+/// than 1 (2 by default), at a finer step. The outcome's figures are the run's trial's:
 /// the confirming trials only decide whether they stand.
 pub fn evaluate_controller(
     ctx: &EvalContext,
