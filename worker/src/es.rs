@@ -11,10 +11,12 @@
 //! stopped before simulating. A fallen child thus ranks below every child that stayed up.
 //! Plain fitness comparison would leave the strategy blind until a child passed the brief.
 //!
-//! A child feasible at the run's step that does not beat its parent is not put through its
-//! confirming trials (the floors, and the finer step where set;
-//! `evaluate_controller_against`): they could only lower it, so the strategy's path and
-//! result are those of confirming every child.
+//! A child that does not beat its parent at its trial's end is not simulated further
+//! (`evaluate_controller_against`): one fast enough for the brief and no fitter than a
+//! feasible parent, or slower and standing no higher than its parent, skips its stay-up
+//! window, and none is put through the confirming trials (the floors, and the finer step
+//! where set). The window and those trials could only lower it, so the strategy's path and
+//! result are those of judging every child in full (a test holds it, bit for bit).
 
 use crate::trial_outcome::{evaluate_controller, evaluate_controller_against};
 use rand::Rng;

@@ -2,7 +2,7 @@
 //! speed check and the fitness; what every scheme is built from.
 
 use crate::help::{first_refusal, Check};
-use crate::sim::trial::{run_trial_to_beat, Observer, Sample, TrialEnd};
+use crate::sim::trial::{run_trial_to_beat, Bar, Observer, Sample, TrialEnd};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use strider_common::precheck::check_before_trial;
@@ -23,7 +23,7 @@ pub fn evaluate_controller(
     controller: &Controller,
     observer: &mut impl Observer,
 ) -> Outcome {
-    let outcome = judge_at_step(ctx, genome, plan, controller, None, observer);
+    let outcome = judge_at_step(ctx, genome, plan, controller, Bar::NONE, observer);
     confirm(ctx, genome, plan, controller, outcome)
 }
 
@@ -44,16 +44,21 @@ pub fn evaluate_controller_to_enter(
     controller: &Controller,
     to_beat: Option<f64>,
 ) -> Outcome {
-    let outcome = judge_at_step(ctx, genome, plan, controller, to_beat, &mut ());
+    let bar = Bar {
+        fitness: to_beat,
+        standing: None,
+    };
+    let outcome = judge_at_step(ctx, genome, plan, controller, bar, &mut ());
     confirm(ctx, genome, plan, controller, outcome)
 }
 
 /// [`evaluate_controller`] for a trial that matters only if it ranks above `to_beat`
-/// (the ES's parent): `None` where the trial at the run's step is feasible and still does
-/// not, since the stay-up window and the confirming trials can only keep its standing or
-/// lower it. Against a feasible parent, a child fast enough and no fitter ends at the
-/// trial's end (its window not run); any other child that does not beat its parent is
-/// judged as [`evaluate_controller`] would, without the confirming trials (the floors' of
+/// (the ES's parent): `None` where the trial at the run's step does not, since the
+/// stay-up window and the confirming trials can only keep its standing or lower it. A
+/// child that at the trial's end is fast enough for the brief and no fitter than a
+/// feasible parent, or slower and standing no higher than its parent (any slower child
+/// against a feasible one), ends there, its window not run ([`Bar::above`]); a child that
+/// does not beat its parent is never put through the confirming trials (the floors' of
 /// `[trial] friction_margin`, and the finer step's where `confirm_substeps_factor` asks it).
 /// The strategy's path is that of judging every child in full.
 pub fn evaluate_controller_against(
@@ -63,12 +68,8 @@ pub fn evaluate_controller_against(
     controller: &Controller,
     to_beat: &Standing,
 ) -> Option<Outcome> {
-    let bar = match *to_beat {
-        Standing::Feasible { fitness } => Some(fitness),
-        _ => None,
-    };
-    let outcome = judge_at_step(ctx, genome, plan, controller, bar, &mut ());
-    if matches!(outcome, Outcome::Valid { .. }) && !outcome.standing().beats(to_beat) {
+    let outcome = judge_at_step(ctx, genome, plan, controller, Bar::above(*to_beat), &mut ());
+    if !outcome.standing().beats(to_beat) {
         return None;
     }
     Some(confirm(ctx, genome, plan, controller, outcome))
@@ -106,7 +107,7 @@ fn confirm(
             &genome,
             &plan,
             &held,
-            None,
+            Bar::NONE,
             &mut Abandon(abandon),
         )
     });
@@ -211,7 +212,7 @@ fn judge_at_step(
     genome: &Genome,
     plan: &BodyPlan,
     controller: &Controller,
-    to_beat: Option<f64>,
+    to_beat: Bar,
     observer: &mut impl Observer,
 ) -> Outcome {
     try_judge_at_step(ctx, genome, plan, controller, to_beat, observer)
@@ -219,15 +220,16 @@ fn judge_at_step(
 }
 
 /// [`evaluate_controller`] at the context's physics step only; a trial fast enough and no
-/// fitter than `to_beat` is answered `outranked` at the trial's end
-/// ([`run_trial_to_beat`]). `None` only when the observer abandoned the trial
+/// fitter than `to_beat` is answered `outranked` at the trial's end, and one slower and
+/// standing no higher than it is answered with its trial's figures there, its window not
+/// run ([`run_trial_to_beat`]: neither counts). `None` only when the observer abandoned the trial
 /// ([`Observer::abandoned`]).
 fn try_judge_at_step(
     ctx: &EvalContext,
     genome: &Genome,
     plan: &BodyPlan,
     controller: &Controller,
-    to_beat: Option<f64>,
+    to_beat: Bar,
     observer: &mut impl Observer,
 ) -> Option<Outcome> {
     let pose = StartPose::new(plan, controller);

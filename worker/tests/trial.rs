@@ -13,7 +13,7 @@ use strider_common::{
 use strider_worker::batch::{evaluate_batch, Job};
 use strider_worker::evaluate::{evaluate, evaluate_to_enter};
 use strider_worker::sim::trial::{
-    run_trial, run_trial_to_beat, run_trial_with, Observer, Sample, TrialEnd, GRAVITY,
+    run_trial, run_trial_to_beat, run_trial_with, Bar, Observer, Sample, TrialEnd, GRAVITY,
 };
 use strider_worker::sim::world::RobotWorld;
 use strider_worker::trial_outcome::{evaluate_controller, evaluate_controller_against};
@@ -586,6 +586,20 @@ fn design_trial(
     feasible_speed: f64,
     to_beat: Option<f64>,
 ) -> (TrialEnd, Recorder) {
+    let bar = Bar {
+        fitness: to_beat,
+        standing: None,
+    };
+    design_trial_against(design, limits, feasible_speed, bar)
+}
+
+/// [`design_trial`] against any bar.
+fn design_trial_against(
+    design: &Genome,
+    limits: &TrialLimits,
+    feasible_speed: f64,
+    to_beat: Bar,
+) -> (TrialEnd, Recorder) {
     let c = ctx();
     let plan = BodyPlan::new(&design.morphology, c.brief.payload);
     let controller = Controller::static_default();
@@ -905,6 +919,36 @@ fn an_es_child_that_cannot_beat_its_parent_is_not_confirmed() {
 }
 
 #[test]
+fn the_es_with_its_shortcuts_ends_where_judging_every_child_in_full_does() {
+    // MAX is too slow for the brief, so its strategy climbs by speed: a child slower than
+    // its parent ends with its trial (its window not run), one no fitter than a feasible
+    // parent too, and none that does not beat its parent is confirmed. The strategy's
+    // result is that of judging every child in full, bit for bit, and at least one child
+    // took the slow shortcut.
+    let mut c = ctx();
+    c.settings.es_iterations = 8;
+    let g = max();
+    let plan = BodyPlan::new(&g.morphology, c.brief.payload);
+    let seed = CandidateSeed::new(0, 0);
+    let mut rng = seed.rng(Purpose::EvolutionStrategy);
+    let mut best = evaluate_controller(&c, &g, &plan, &Controller::static_default(), &mut ());
+    let mut slower = 0;
+    for _ in 0..c.settings.es_iterations {
+        let mut child = *best.controller();
+        child.mutate_all(&mut rng);
+        let outcome = evaluate_controller(&c, &g, &plan, &child, &mut ());
+        let beats = outcome.standing().beats(&best.standing());
+        slower += usize::from(matches!(outcome.standing(), Standing::TooSlow { .. }) && !beats);
+        if beats {
+            best = outcome;
+        }
+    }
+    let tuned = strider_worker::es::tune_controller(&c, &g, &plan, seed);
+    assert_eq!(outcome_hash(&tuned), outcome_hash(&best), "{tuned:?}");
+    assert!(slower > 0, "no child took the slow shortcut");
+}
+
+#[test]
 fn motor_sizing_sees_the_trials_own_torques_and_work() {
     // The report's motor sizing replays a design's trial: its peak torques are the trial's
     // (the largest peak over limit is the outcome's peak torque ratio), no joint passes its
@@ -1168,6 +1212,58 @@ fn a_trial_no_fitter_than_its_bar_ends_at_the_trials_end_with_the_same_figures()
     // Too slow for the long window: the bar changes nothing.
     let slow = |to_beat| design_trial(&walker, &c.limits, f64::INFINITY, to_beat).0;
     assert_eq!(slow(Some(f64::INFINITY)), slow(None));
+}
+
+#[test]
+fn a_slow_trial_standing_no_higher_than_its_bar_ends_at_the_trials_end() {
+    // The same walker taken as too slow for the brief (held to the 1-s window): against a
+    // standing it does not pass (its own speed, or a feasible design), it ends when the
+    // trial does, with the whole trial's figures bit for bit; against a standing a hair
+    // lower, or one a slow trial always passes (a trial that ended early), the window runs.
+    let c = ctx();
+    let walker = fixture("walks_on_every_floor.json");
+    let run = |standing: Option<Standing>| {
+        let bar = Bar {
+            fitness: None,
+            standing,
+        };
+        let (end, rec) = design_trial_against(&walker, &c.limits, f64::INFINITY, bar);
+        (end, rec.time.len())
+    };
+    let (whole, whole_steps) = run(None);
+    let TrialEnd::Completed(stats) = &whole else {
+        panic!("it stays up: {whole:?}")
+    };
+    let trial_steps = (c.settings.trial_seconds * c.settings.control_hz).round() as usize;
+    let window = (c.limits.upright_after_seconds * c.settings.control_hz).round() as usize;
+    assert_eq!(whole_steps, trial_steps + window);
+    let speed = stats.speed;
+    for bar in [
+        Standing::TooSlow { speed },
+        Standing::Feasible { fitness: 0.0 },
+    ] {
+        let (end, steps) = run(Some(bar));
+        assert_eq!(end, TrialEnd::Outranked(*stats), "against {bar:?}");
+        assert_eq!(
+            steps, trial_steps,
+            "ended at the trial's end against {bar:?}"
+        );
+    }
+    for bar in [
+        Standing::TooSlow {
+            speed: speed * (1.0 - 1e-12),
+        },
+        Standing::EndedEarly { at_time: 1e9 },
+        Standing::NotSimulated,
+    ] {
+        assert_eq!(run(Some(bar)).0, whole, "against {bar:?}");
+    }
+    // `Bar::above` a parent: the fast path's bar only for a feasible one.
+    assert_eq!(Bar::above(Standing::TooSlow { speed }).fitness, None);
+    assert_eq!(
+        Bar::above(Standing::Feasible { fitness: 2.0 }).fitness,
+        Some(2.0)
+    );
 }
 
 #[test]

@@ -21,7 +21,7 @@ use strider_common::experiment::{RunSettings, TrialLimits};
 use strider_common::gait::leg_targets;
 use strider_common::outcome::{GaitStats, InvalidReason, Skate, TrialStats};
 use strider_common::params::LINKS_PER_LEG;
-use strider_common::{Controller, StartPose};
+use strider_common::{Controller, Standing, StartPose};
 
 /// The body frame's up axis (the model's y): its angle from the world's vertical is the
 /// body's tilt.
@@ -39,10 +39,12 @@ pub use strider_common::body_plan::BLOW_UP_SPEED;
 pub enum TrialEnd {
     /// It ran its full duration.
     Completed(TrialStats),
-    /// It met the speed that holds it to the long stay-up window and was no fitter than
-    /// the bar it was run against ([`run_trial_to_beat`]): ended at the trial's end, its
-    /// window (and shove) not run, since it could not count whatever they said. Its
-    /// figures are the trial's, those it would have had had it stayed up.
+    /// It ranked no higher than the bar it was run against at the trial's end
+    /// ([`run_trial_to_beat`]): it met the speed that holds it to the long stay-up window
+    /// and was no fitter than [`Bar::fitness`], or it was slower and stood no higher than
+    /// [`Bar::standing`]. Ended there, its window (and shove) not run, since it could not
+    /// count whatever they said. Its figures are the trial's, those it would have had had
+    /// it stayed up.
     Outranked(TrialStats),
     /// It was stopped.
     Stopped {
@@ -162,15 +164,51 @@ pub fn run_trial_from<O: Observer>(
         settings,
         limits,
         feasible_speed,
-        None,
+        Bar::NONE,
         observer,
     )
 }
 
-/// [`run_trial_from`] for a design that matters only if it is fitter than `to_beat`
-/// (1 / cost of transport over the trial): one fast enough for the long window and no
-/// fitter ends at the trial's end, [`TrialEnd::Outranked`]. The window could only keep it
-/// feasible or make it fall, and neither makes it count. `None` runs the whole trial.
+/// What a trial must pass to count, judged at the trial's end ([`run_trial_to_beat`]).
+/// The window after it can only keep a trial's standing or lower it (a fall, which ranks
+/// below every trial that ran to its end), so a trial at or under its bar there counts
+/// for nothing whatever the window says.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Bar {
+    /// For a trial fast enough for the long window: the fitness (1 / cost of transport
+    /// over the trial) it must pass.
+    pub fitness: Option<f64>,
+    /// For a slower trial: the standing it must pass (its own is
+    /// [`Standing::TooSlow`] at its average speed).
+    pub standing: Option<Standing>,
+}
+
+impl Bar {
+    /// No bar: every trial runs its window.
+    pub const NONE: Bar = Bar {
+        fitness: None,
+        standing: None,
+    };
+
+    /// The bar of a design that counts only if it ranks above `standing` (the ES's
+    /// parent): a fast trial must be fitter than a feasible one; a slower trial must stand
+    /// above it.
+    pub fn above(standing: Standing) -> Bar {
+        Bar {
+            fitness: match standing {
+                Standing::Feasible { fitness } => Some(fitness),
+                _ => None,
+            },
+            standing: Some(standing),
+        }
+    }
+}
+
+/// [`run_trial_from`] for a design that matters only if it passes `to_beat`: one that at
+/// the trial's end is fast enough for the long window and no fitter than
+/// [`Bar::fitness`], or slower and standing no higher than [`Bar::standing`], ends there,
+/// [`TrialEnd::Outranked`]. The window could only keep its standing or make it fall, and
+/// neither makes it count. [`Bar::NONE`] runs the whole trial.
 #[allow(clippy::too_many_arguments)]
 pub fn run_trial_to_beat<O: Observer>(
     plan: &BodyPlan,
@@ -179,7 +217,7 @@ pub fn run_trial_to_beat<O: Observer>(
     settings: &RunSettings,
     limits: &TrialLimits,
     feasible_speed: f64,
-    to_beat: Option<f64>,
+    to_beat: Bar,
     observer: &mut O,
 ) -> TrialEnd {
     trial(
@@ -212,7 +250,7 @@ pub fn run_trial_with<O: Observer>(
         start,
         settings,
         limits,
-        (feasible_speed, None),
+        (feasible_speed, Bar::NONE),
         targets_at,
         observer,
     )
@@ -224,7 +262,7 @@ fn trial<O: Observer>(
     start: &StartPose,
     settings: &RunSettings,
     limits: &TrialLimits,
-    (feasible_speed, to_beat): (f64, Option<f64>),
+    (feasible_speed, to_beat): (f64, Bar),
     targets_at: impl Fn(usize, f64) -> [f64; LINKS_PER_LEG],
     observer: &mut O,
 ) -> TrialEnd {
@@ -290,7 +328,10 @@ fn trial<O: Observer>(
             at_end = Some(stats);
             if stats.speed >= feasible_speed {
                 // `NaN <= bar` is false: such a trial runs on to its own verdict.
-                if to_beat.is_some_and(|bar| 1.0 / stats.cost_of_transport <= bar) {
+                if to_beat
+                    .fitness
+                    .is_some_and(|bar| 1.0 / stats.cost_of_transport <= bar)
+                {
                     return TrialEnd::Outranked(stats);
                 }
                 after = long_after;
@@ -299,6 +340,11 @@ fn trial<O: Observer>(
                 if limits.push_speed > 0.0 {
                     shove(&mut rw, limits.push_speed);
                 }
+            } else if to_beat.standing.is_some_and(|bar| {
+                // Too slow for the brief (or not forward at all), it stands by its speed.
+                !Standing::TooSlow { speed: stats.speed }.beats(&bar)
+            }) {
+                return TrialEnd::Outranked(stats);
             }
         }
         if step >= steps + after {
