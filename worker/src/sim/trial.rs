@@ -173,7 +173,7 @@ pub fn run_trial_from<O: Observer>(
 /// The window after it can only keep a trial's standing or lower it (a fall, which ranks
 /// below every trial that ran to its end), so a trial at or under its bar there counts
 /// for nothing whatever the window says.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct Bar {
     /// For a trial fast enough for the long window: the fitness (1 / cost of transport
     /// over the trial) it must pass.
