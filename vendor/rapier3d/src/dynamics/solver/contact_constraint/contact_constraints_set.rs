@@ -38,6 +38,14 @@ pub fn joint_data_num_constraints(joint: &crate::dynamics::GenericJoint) -> usiz
 
 pub(crate) struct ContactConstraintsSet {
     pub generic_jacobians: DVector,
+    /// Strider patch: how much of `generic_jacobians` the last step's constraints wrote
+    /// (their last Jacobian id). Every entry past it is zero, as upstream's zero fill of the
+    /// whole buffer at each step leaves it: a step writes every entry below its own last id
+    /// (`Multibody::fill_jacobians_unsolved` writes a row's `2 ndofs` entries whole, and
+    /// only it moves the id on), so a step zeroes only what the step before wrote past its
+    /// own last id, not the whole buffer (which keeps the largest any step needed): the
+    /// same buffer bit for bit.
+    pub generic_jacobians_written: usize,
     /// Greedy body-mask grouper, only used for the overflow-color manifolds
     /// (they may share bodies, so the color-run chunking can't cover them).
     pub interaction_groups: InteractionGroups,
@@ -57,6 +65,7 @@ impl ContactConstraintsSet {
     pub fn new() -> Self {
         Self {
             generic_jacobians: DVector::zeros(0),
+            generic_jacobians_written: 0,
             interaction_groups: InteractionGroups::new(),
             generic_velocity_constraints: vec![],
             simd_velocity_coulomb_constraints: vec![],

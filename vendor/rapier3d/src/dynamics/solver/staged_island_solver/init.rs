@@ -24,6 +24,11 @@ use super::{
     CHUNK_BATCH, ChunkSegment, GroupLayout, LAYOUT_REF_WORKERS, SharedCtx, StagedIslandSolver,
 };
 
+/// Strider patch: a signalling NaN's bits, which debug builds write over the contact
+/// Jacobians the last step wrote before this step writes them again.
+#[cfg(debug_assertions)]
+const JACOBIAN_POISON: u32 = 0x7fa5_a5a5;
+
 impl StagedIslandSolver {
     #[profiling::function]
     #[allow(clippy::too_many_arguments)]
@@ -197,7 +202,6 @@ impl StagedIslandSolver {
             // NOTE: the twist constraint/builder buffers are NOT cleared: they are
             // the persistent constraint cache, preserved (and resized) further
             // below once the chunk layout is known.
-            set.generic_jacobians.as_mut_slice().fill(0.0);
             set.generic_velocity_constraints.clear();
             set.generic_velocity_constraints_builder.clear();
             set.simd_velocity_coulomb_constraints.clear();
@@ -581,8 +585,35 @@ impl StagedIslandSolver {
         }
 
         // Generic (multibody) contact constraints: serial init, solved by worker 0.
+        // Strider patch: debug builds poison what the last step wrote, to check that this
+        // step writes every entry below its own last id (ContactConstraintsSet::
+        // generic_jacobians_written); no arithmetic gives this NaN's bits.
+        #[cfg(debug_assertions)]
+        {
+            let last = set.generic_jacobians_written;
+            set.generic_jacobians.as_mut_slice()[..last].fill(Real::from_bits(JACOBIAN_POISON));
+        }
         let mut jacobian_id = 0;
         set.compute_generic_constraints(bodies, multibodies, graph, store, &mut jacobian_id);
+        debug_assert!(
+            set.generic_jacobians.as_slice()[..jacobian_id]
+                .iter()
+                .all(|v| v.to_bits() != JACOBIAN_POISON),
+            "a contact Jacobian entry below the step's last id not written"
+        );
+        // Zeroes what the last step wrote past this step's last id: below it this step
+        // wrote every entry, so the buffer is what upstream's zero fill of all of it at
+        // the step's start and the same writes leave.
+        let written = core::mem::replace(&mut set.generic_jacobians_written, jacobian_id);
+        if written > jacobian_id {
+            set.generic_jacobians.as_mut_slice()[jacobian_id..written].fill(0.0);
+        }
+        debug_assert!(
+            set.generic_jacobians.as_slice()[jacobian_id..]
+                .iter()
+                .all(|v| *v == 0.0),
+            "a contact Jacobian entry past the step's last id not zero"
+        );
 
         #[cfg(feature = "dim3")]
         self.any_gyroscopic.store(false, Ordering::Relaxed);
