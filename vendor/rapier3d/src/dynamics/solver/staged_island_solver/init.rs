@@ -26,7 +26,6 @@ use super::{
 
 /// Strider patch: a signalling NaN's bits, which debug builds write over the contact
 /// Jacobians the last step wrote before this step writes them again.
-#[cfg(debug_assertions)]
 const JACOBIAN_POISON: u32 = 0x7fa5_a5a5;
 
 impl StagedIslandSolver {
