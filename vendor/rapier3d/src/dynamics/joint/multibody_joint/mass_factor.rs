@@ -130,6 +130,24 @@ impl MassFactor {
         }
     }
 
+    /// [`Self::set_tree`] along the tree `other` was last set along (the multibody's second
+    /// matrix after its first): its chains copied where they differ, not compared link by
+    /// link again.
+    pub(crate) fn set_tree_as(&mut self, matrix: &DMatrix<Real>, other: &MassFactor) {
+        let n = matrix.nrows();
+        debug_assert_eq!(other.offsets.len(), n + 1, "another tree's chains");
+        self.n = n;
+        self.dense = None;
+        if self.tree != other.tree || self.offsets.len() != other.offsets.len() {
+            self.tree.clone_from(&other.tree);
+            self.offsets.clone_from(&other.offsets);
+            self.chains.clone_from(&other.chains);
+        }
+        if !self.factorise(matrix) {
+            self.dense = Some(LU::new(matrix.clone()));
+        }
+    }
+
     /// Computes each dof's chain of ancestors, unless the tree is the one they were
     /// computed for (the same links, ranges and dofs as the last call's).
     fn set_chains(
@@ -141,19 +159,24 @@ impl MassFactor {
         let mut same = self.offsets.len() == n + 1;
         let mut at = 0;
         for (columns, (first, count)) in link_columns.iter().zip(link_dofs.clone()) {
-            for value in
-                columns
-                    .iter()
-                    .flat_map(|&(s, len)| [s, len])
-                    .chain([usize::MAX, first, count])
-            {
-                same &= self.tree.get(at) == Some(&value);
-                if !same {
-                    self.tree.truncate(at);
-                    self.tree.push(value);
+            // Link by link, a slice compared while the tree is the same (this runs twice
+            // a step), then written.
+            let len = 2 * columns.len() + 3;
+            same = same
+                && self.tree.get(at..at + len).is_some_and(|old| {
+                    old.chunks_exact(2)
+                        .zip(columns)
+                        .all(|(o, &(s, l))| o[0] == s && o[1] == l)
+                        && old[len - 3..] == [usize::MAX, first, count]
+                });
+            if !same {
+                self.tree.truncate(at);
+                for &(s, l) in columns {
+                    self.tree.extend([s, l]);
                 }
-                at += 1;
+                self.tree.extend([usize::MAX, first, count]);
             }
+            at += len;
         }
         if same && self.tree.len() == at {
             return;
@@ -384,6 +407,50 @@ mod tests {
             }
         }
         m
+    }
+
+    /// A factor set along another's tree solves bit for bit as one set along the tree
+    /// itself, whatever tree it was set along before (here one with a leg fewer, whose
+    /// chains are a prefix of the new ones, and the same tree again).
+    #[test]
+    fn a_factor_set_along_anothers_tree_solves_as_one_set_along_it() {
+        let (columns, dofs) = tree();
+        let (short_columns, short_dofs) = (&columns[..3], &dofs[..3]);
+        let b = DMatrix::<Real>::from_fn(12, 3, |i, c| (i * 3 + c) as Real - 7.0);
+        for seed in 0..10 {
+            let (m1, m2) = (matrix(&columns, 12, seed), matrix(&columns, 12, seed + 100));
+            let mut first = MassFactor::new();
+            first.set_tree(&m1, &columns, dofs.iter().copied());
+            let mut alone = MassFactor::new();
+            alone.set_tree(&m2, &columns, dofs.iter().copied());
+            let mut short = MassFactor::new();
+            let m_short = matrix(short_columns, 9, seed);
+            short.set_tree(&m_short, short_columns, short_dofs.iter().copied());
+            let mut again = alone.clone();
+            // And `set_tree` itself on a factor last set along the shorter tree.
+            let mut regrown = short.clone();
+            regrown.set_tree(&m2, &columns, dofs.iter().copied());
+            let (mut x, mut y) = (b.clone(), b.clone());
+            regrown.solve_mut(&mut x);
+            alone.solve_mut(&mut y);
+            assert!(
+                x.iter()
+                    .zip(y.iter())
+                    .all(|(p, q)| p.to_bits() == q.to_bits())
+            );
+            for second in [&mut MassFactor::new(), &mut short, &mut again] {
+                second.set_tree_as(&m2, &first);
+                assert!(second.is_tree());
+                let (mut x, mut y) = (b.clone(), b.clone());
+                second.solve_mut(&mut x);
+                alone.solve_mut(&mut y);
+                assert!(
+                    x.iter()
+                        .zip(y.iter())
+                        .all(|(p, q)| p.to_bits() == q.to_bits())
+                );
+            }
+        }
     }
 
     #[test]

@@ -1587,7 +1587,7 @@ impl Multibody {
             self.acc_inv_augmented_mass
                 .set_tree(&self.acc_augmented_mass, col_ranges, dofs());
             self.inv_augmented_mass
-                .set_tree(&self.augmented_mass, col_ranges, dofs());
+                .set_tree_as(&self.augmented_mass, &self.acc_inv_augmented_mass);
         } else {
             let leading =
                 |m: &DMatrix<Real>| m.view((0, 0), (effective_dim, effective_dim)).into_owned();
