@@ -214,8 +214,20 @@ impl MassFactor {
     /// first; `false` on a pivot that is not positive and finite, or not above a rounding
     /// error of its diagonal entry.
     fn factorise(&mut self, matrix: &DMatrix<Real>) -> bool {
-        let n = self.n;
         let a = matrix.as_slice();
+        self.copy_entries(a);
+        #[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX, checked just above.
+            return unsafe { self.eliminate_avx(a) };
+        }
+        self.eliminate(a, sub_scaled_any)
+    }
+
+    /// The entries of `a` (column-major, `n x n`) on the tree's pattern into the packed
+    /// factors, before their eliminations.
+    fn copy_entries(&mut self, a: &[Real]) {
+        let n = self.n;
         let total = self.chains.len();
         self.column.resize(total, 0.0);
         self.row.resize(total, 0.0);
@@ -233,6 +245,25 @@ impl MassFactor {
             }
             self.pivots[k] = a_k[k];
         }
+    }
+
+    /// [`Self::eliminate`] compiled for CPUs with AVX (no FMA: each entry's arithmetic is
+    /// unchanged), its short runs through [`sub_scaled_avx`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX.
+    #[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+    #[target_feature(enable = "avx")]
+    unsafe fn eliminate_avx(&mut self, a: &[Real]) -> bool {
+        // SAFETY (of `sub_scaled_avx`): this function runs only where the CPU has AVX.
+        self.eliminate(a, |y, x, s| unsafe { sub_scaled_avx(y, x, s) })
+    }
+
+    /// The eliminations of [`Self::factorise`], on the entries it copied from `a`, each run
+    /// of a column or row updated by `sub_scaled`.
+    #[inline(always)]
+    fn eliminate(&mut self, a: &[Real], sub_scaled: impl Fn(&mut [Real], &[Real], Real)) -> bool {
+        let n = self.n;
         for k in (0..n).rev() {
             let pivot = self.pivots[k];
             if !(pivot > a[k * n + k] * Real::EPSILON && pivot.is_finite()) {
@@ -254,12 +285,10 @@ impl MassFactor {
                 let m_start = self.offsets[m];
                 debug_assert_eq!(self.offsets[m + 1] - m_start, t);
                 let (lt, ut) = (l[t], u[t]);
-                for (y, li) in before[m_start..m_start + t].iter_mut().zip(&l[..t]) {
-                    *y -= *li * ut;
-                }
-                for (y, uj) in row_before[m_start..m_start + t].iter_mut().zip(&u[..t]) {
-                    *y -= lt * *uj;
-                }
+                sub_scaled(&mut before[m_start..m_start + t], &l[..t], ut);
+                // `lt * u[j]`: the same product as `u[j] * lt` (IEEE multiplication
+                // commutes bit for bit).
+                sub_scaled(&mut row_before[m_start..m_start + t], &u[..t], lt);
                 self.pivots[m] -= lt * ut;
             }
         }
@@ -349,6 +378,50 @@ impl MassFactor {
             }
         }
         true
+    }
+}
+
+/// `y[i] -= x[i] * s` for each `i` (`x` as long as `y`), unfused.
+#[inline(always)]
+fn sub_scaled_any(y: &mut [Real], x: &[Real], s: Real) {
+    for (y, x) in y.iter_mut().zip(x) {
+        *y -= *x * s;
+    }
+}
+
+/// [`sub_scaled_any`] eight entries at a time with AVX's masked loads and stores: the same
+/// multiply then subtract, lane by lane (the runs are a tree's chains, a few entries each,
+/// which the compiler's loop did one at a time).
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn sub_scaled_avx(y: &mut [Real], x: &[Real], s: Real) {
+    use core::arch::x86_64::{
+        _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_mul_ps, _mm256_set1_ps,
+        _mm256_sub_ps,
+    };
+    const LANES: usize = 8;
+    // `MASKS[LANES - k..][..LANES]` enables the first `k` lanes.
+    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    let n = y.len();
+    assert!(x.len() >= n);
+    let scale = _mm256_set1_ps(s);
+    let mut t = 0;
+    while t < n {
+        let k = (n - t).min(LANES);
+        // SAFETY: the CPU has AVX (the caller's contract); the masked loads and stores
+        // touch only the first `k` lanes, entries `t..t + k` of `y` and `x`, inside both.
+        unsafe {
+            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - k).cast());
+            let py = y.as_mut_ptr().add(t);
+            let product = _mm256_mul_ps(_mm256_maskload_ps(x.as_ptr().add(t), mask), scale);
+            let difference = _mm256_sub_ps(_mm256_maskload_ps(py, mask), product);
+            _mm256_maskstore_ps(py, mask, difference);
+        }
+        t += k;
     }
 }
 
@@ -450,6 +523,48 @@ mod tests {
                         .all(|(p, q)| p.to_bits() == q.to_bits())
                 );
             }
+        }
+    }
+
+    /// The eliminations give the same bits with AVX's masked runs as without, on chains
+    /// longer than a register (a leg of five dofs under the free root: chains of up to 10).
+    #[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+    #[test]
+    fn eliminations_are_the_same_with_avx() {
+        if !std::is_x86_feature_detected!("avx") {
+            return;
+        }
+        let columns = vec![
+            vec![(0, 6)],
+            vec![(0, 8)],
+            vec![(0, 9)],
+            vec![(0, 11)],
+            vec![(0, 6), (11, 2)],
+        ];
+        let dofs = vec![(0, 6), (6, 2), (8, 1), (9, 2), (11, 2)];
+        let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for seed in 0..20 {
+            let m = matrix(&columns, 13, seed);
+            let mut avx = MassFactor::new();
+            avx.set_tree(&m, &columns, dofs.iter().copied());
+            assert!(avx.is_tree());
+            let mut portable = avx.clone();
+            portable.copy_entries(m.as_slice());
+            assert!(portable.eliminate(m.as_slice(), sub_scaled_any));
+            assert_eq!(bits(&avx.column), bits(&portable.column), "seed {seed}");
+            assert_eq!(bits(&avx.row), bits(&portable.row), "seed {seed}");
+            assert_eq!(bits(&avx.pivots), bits(&portable.pivots), "seed {seed}");
+        }
+        // And a run of each length against the loop, at a register's edge too.
+        for n in 0..=17 {
+            let x: Vec<Real> = (0..n).map(|i| i as Real * 0.37 - 2.1).collect();
+            let start: Vec<Real> = (0..n).map(|i| 1.3 - i as Real * 0.11).collect();
+            let (mut a, mut b) = (start.clone(), start.clone());
+            sub_scaled_any(&mut a, &x, 0.713);
+            // SAFETY: the CPU has AVX, checked above.
+            unsafe { sub_scaled_avx(&mut b, &x, 0.713) };
+            assert_eq!(bits(&a), bits(&b), "{n} entries");
+            assert!(n < 2 || bits(&a) != bits(&start));
         }
     }
 

@@ -2584,8 +2584,8 @@ fn spatial_product(
     if SPATIAL_DIM > 5 && n > 5 {
         let (out, m, j) = (out.as_mut_slice(), m.as_slice(), j.as_slice());
         #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has FMA, checked just above.
+        if std::is_x86_feature_detected!("avx") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has AVX and FMA, checked just above.
             unsafe { fused_product_fma(out, m, j, s, n) };
             return;
         }
@@ -2708,7 +2708,7 @@ fn transposed_products_add(
         unsafe { transposed_products_add_avx(outs, ld, jt, ws, c, ranges) };
         return;
     }
-    transposed_products_add_any(outs, ld, jt, ws, c, ranges);
+    transposed_products_add_any(outs, ld, jt, ws, c, ranges, add_dots_any);
 }
 
 /// [`transposed_products_add_any`] compiled for CPUs with AVX (no FMA, so each entry's
@@ -2723,7 +2723,13 @@ unsafe fn transposed_products_add_avx(
     c: &[Real],
     ranges: &[(usize, usize)],
 ) {
-    transposed_products_add_any(outs, ld, jt, ws, c, ranges)
+    // SAFETY (of `add_dots_avx`): this function runs only where the CPU has AVX.
+    #[cfg(feature = "f32")]
+    transposed_products_add_any(outs, ld, jt, ws, c, ranges, |o0, o1, d, r| unsafe {
+        add_dots_avx(o0, o1, d, r)
+    });
+    #[cfg(not(feature = "f32"))]
+    transposed_products_add_any(outs, ld, jt, ws, c, ranges, add_dots_any);
 }
 
 #[inline(always)]
@@ -2734,6 +2740,7 @@ fn transposed_products_add_any(
     ws: [&[Real]; 2],
     c: &[Real],
     ranges: &[(usize, usize)],
+    add_dots: impl Fn(&mut [Real], &mut [Real], [&[Real]; 3], &[(usize, usize)]),
 ) {
     const D: usize = SPATIAL_DIM;
     let [out0, out1] = outs;
@@ -2779,23 +2786,84 @@ fn transposed_products_add_any(
                 dots1.as_flattened(),
                 dots2.as_flattened(),
             );
-            let out0_b = &mut out0[b * ld..b * ld + ld];
-            let out1_b = &mut out1[b * ld..b * ld + ld];
-            let mut a = 0;
-            for &(sa, na_) in ranges {
-                for (o, d) in out0_b[sa..sa + na_].iter_mut().zip(&flat0[a..a + na_]) {
-                    *o += *d;
-                }
-                for ((o, d1), d2) in out1_b[sa..sa + na_]
-                    .iter_mut()
-                    .zip(&flat1[a..a + na_])
-                    .zip(&flat2[a..a + na_])
-                {
-                    *o = (*o + *d1) + *d2;
-                }
-                a += na_;
-            }
+            add_dots(
+                &mut out0[b * ld..b * ld + ld],
+                &mut out1[b * ld..b * ld + ld],
+                [flat0, flat1, flat2],
+                ranges,
+            );
         }
+    }
+}
+
+/// One output column of [`transposed_products_add`]: for each range `(s, n)` of `ranges`,
+/// the next `n` dot products of `dots` (taken in order over the ranges) added to entries
+/// `s..s + n`: `out0 += dots[0]`, `out1 = (out1 + dots[1]) + dots[2]`, entry by entry.
+#[inline(always)]
+fn add_dots_any(
+    out0: &mut [Real],
+    out1: &mut [Real],
+    dots: [&[Real]; 3],
+    ranges: &[(usize, usize)],
+) {
+    let mut a = 0;
+    for &(s, n) in ranges {
+        let (o0, o1) = (&mut out0[s..s + n], &mut out1[s..s + n]);
+        let (d0, d1, d2) = (&dots[0][a..a + n], &dots[1][a..a + n], &dots[2][a..a + n]);
+        for t in 0..n {
+            o0[t] += d0[t];
+            o1[t] = (o1[t] + d1[t]) + d2[t];
+        }
+        a += n;
+    }
+}
+
+/// [`add_dots_any`] [`LANES`] entries at a time with AVX's masked loads and stores: the same
+/// additions, lane by lane (a range is a few entries, which the compiler's loops did one
+/// at a time).
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn add_dots_avx(
+    out0: &mut [Real],
+    out1: &mut [Real],
+    dots: [&[Real]; 3],
+    ranges: &[(usize, usize)],
+) {
+    use core::arch::x86_64::{
+        _mm256_add_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
+    };
+    // `MASKS[8 - k..16 - k]` enables the first `k` lanes.
+    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    let mut a = 0;
+    for &(s, n) in ranges {
+        // Checked once, so the pointers below stay inside the slices.
+        assert!(s + n <= out0.len() && s + n <= out1.len());
+        assert!(a + n <= dots[0].len() && a + n <= dots[1].len() && a + n <= dots[2].len());
+        let mut t = 0;
+        while t < n {
+            let k = (n - t).min(LANES);
+            // SAFETY: the CPU has AVX (the caller's contract); `MASKS[LANES - k..]` has
+            // `LANES` entries; each masked load and store touches only the first `k` lanes,
+            // entries `t..t + k` of ranges checked above to lie inside their slices.
+            unsafe {
+                let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - k).cast());
+                let p0 = out0.as_mut_ptr().add(s + t);
+                let p1 = out1.as_mut_ptr().add(s + t);
+                let d0 = _mm256_maskload_ps(dots[0].as_ptr().add(a + t), mask);
+                let d1 = _mm256_maskload_ps(dots[1].as_ptr().add(a + t), mask);
+                let d2 = _mm256_maskload_ps(dots[2].as_ptr().add(a + t), mask);
+                let o0 = _mm256_add_ps(_mm256_maskload_ps(p0, mask), d0);
+                let o1 = _mm256_add_ps(_mm256_add_ps(_mm256_maskload_ps(p1, mask), d1), d2);
+                _mm256_maskstore_ps(p0, mask, o0);
+                _mm256_maskstore_ps(p1, mask, o1);
+            }
+            t += k;
+        }
+        a += n;
     }
 }
 
@@ -2846,6 +2914,36 @@ fn load_rows(src: &[Real], block: usize, row0: usize, valid: usize) -> Rows3 {
     rows
 }
 
+/// [`load_rows`] with AVX's masked loads: the lanes from `valid` on read as +0, as there.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn load_rows_avx(src: &[Real], block: usize, row0: usize, valid: usize) -> Rows3 {
+    use core::arch::x86_64::{_mm256_loadu_si256, _mm256_maskload_ps, _mm256_storeu_ps};
+    // `MASKS[LANES - k..][..LANES]` enables the first `k` lanes.
+    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    let mut rows = [[0.0; LANES]; 3];
+    if valid == 0 {
+        // Past the parent's blocks.
+        return rows;
+    }
+    let valid = valid.min(LANES);
+    for (r, row) in rows.iter_mut().enumerate() {
+        let at = (block * SPATIAL_DIM + row0 + r) * LANES;
+        let src = &src[at..at + LANES];
+        // SAFETY: the CPU has AVX (the caller's contract); `MASKS[LANES - valid..]` has
+        // `LANES` entries; the load reads inside `src`, `LANES` entries long.
+        unsafe {
+            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - valid).cast());
+            _mm256_storeu_ps(row.as_mut_ptr(), _mm256_maskload_ps(src.as_ptr(), mask));
+        }
+    }
+    rows
+}
+
 #[inline(always)]
 fn store_rows(dst: &mut [Real], block: usize, row0: usize, rows: &Rows3) {
     for (r, row) in rows.iter().enumerate() {
@@ -2873,7 +2971,7 @@ fn coriolis_from_parent(
         unsafe { coriolis_from_parent_avx(cor, parent_cor, parent_jt, parent_width, m) };
         return;
     }
-    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m);
+    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m, load_rows);
 }
 
 /// [`coriolis_from_parent_any`] compiled for CPUs with AVX (no FMA: the same arithmetic).
@@ -2886,7 +2984,18 @@ unsafe fn coriolis_from_parent_avx(
     parent_width: usize,
     m: &[[[Real; 3]; 3]; 5],
 ) {
-    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m)
+    #[cfg(feature = "f32")]
+    // SAFETY (of `load_rows_avx`): this function runs only where the CPU has AVX.
+    coriolis_from_parent_any(
+        cor,
+        parent_cor,
+        parent_jt,
+        parent_width,
+        m,
+        |s, b, r, v| unsafe { load_rows_avx(s, b, r, v) },
+    );
+    #[cfg(not(feature = "f32"))]
+    coriolis_from_parent_any(cor, parent_cor, parent_jt, parent_width, m, load_rows);
 }
 
 #[inline(always)]
@@ -2896,6 +3005,7 @@ fn coriolis_from_parent_any(
     parent_jt: &[Real],
     parent_width: usize,
     m: &[[[Real; 3]; 3]; 5],
+    load_rows: impl Fn(&[Real], usize, usize, usize) -> Rows3,
 ) {
     let blocks = cor.len() / (SPATIAL_DIM * LANES);
     for b in 0..blocks {
@@ -2994,10 +3104,46 @@ fn coriolis_meld_any(
     }
 }
 
-/// [`fused_product`] compiled for CPUs with FMA, so `mul_add` is one instruction.
+/// [`fused_product`] on CPUs with FMA: an output column's [`SPATIAL_DIM`] entries side by
+/// side in one register (`m`'s columns held in registers, `j[k, c]` broadcast), each lane
+/// the same chain of fused multiply-adds in the same order (`fma(a, b, c)` is `a b + c`
+/// rounded once, whichever operand is the matrix's), where the compiler's loop did one
+/// entry at a time.
+///
+/// # Safety
+/// The CPU must have AVX and FMA.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
-#[target_feature(enable = "fma")]
+#[target_feature(enable = "avx,fma")]
 unsafe fn fused_product_fma(out: &mut [Real], m: &[Real], j: &[Real], s: usize, n: usize) {
+    #[cfg(feature = "f32")]
+    {
+        use core::arch::x86_64::{
+            __m256, _mm256_fmadd_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
+            _mm256_set1_ps, _mm256_setzero_ps,
+        };
+        const D: usize = SPATIAL_DIM;
+        // `MASKS[LANES - D..][..LANES]` enables the first `D` lanes.
+        const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+        assert!(D <= LANES && m.len() >= D * D);
+        assert!(j.len() >= (s + n) * D && out.len() >= (s + n) * D);
+        // SAFETY: the CPU has AVX and FMA (the caller's contract); each masked load and
+        // store touches the first `D` lanes only: a column of `m`, or column `c` of `j` or
+        // `out`, inside the lengths checked above.
+        unsafe {
+            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - D).cast());
+            let columns: [__m256; D] =
+                core::array::from_fn(|k| _mm256_maskload_ps(m.as_ptr().add(k * D), mask));
+            for c in s..s + n {
+                let jc = &j[c * D..c * D + D];
+                let mut acc = _mm256_setzero_ps();
+                for (column, jk) in columns.iter().zip(jc) {
+                    acc = _mm256_fmadd_ps(*column, _mm256_set1_ps(*jk), acc);
+                }
+                _mm256_maskstore_ps(out.as_mut_ptr().add(c * D), mask, acc);
+            }
+        }
+    }
+    #[cfg(not(feature = "f32"))]
     fused_product(out, m, j, s, n)
 }
 
@@ -3483,12 +3629,33 @@ mod test {
         };
         let m3: [[[Real; 3]; 3]; 3] = core::array::from_fn(|p| m5[p]);
         let bits = |x: &[Real]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        // Parents whose columns fill part of a block, a whole one, and one column.
+        for width in [1, 8, 5] {
+            let (mut plain, mut avx) = (vec![0.0; len], vec![0.0; len]);
+            coriolis_from_parent_any(
+                &mut plain,
+                &parent_cor,
+                &parent_jt,
+                width,
+                &m5,
+                super::load_rows,
+            );
+            // SAFETY: the CPU has AVX, checked above.
+            unsafe { coriolis_from_parent_avx(&mut avx, &parent_cor, &parent_jt, width, &m5) };
+            assert!(plain.iter().any(|x| *x != 0.0));
+            assert_eq!(bits(&plain), bits(&avx), "parent width {width}");
+        }
         let (mut plain, mut avx) = (vec![0.0; len], vec![0.0; len]);
-        coriolis_from_parent_any(&mut plain, &parent_cor, &parent_jt, 5, &m5);
+        coriolis_from_parent_any(
+            &mut plain,
+            &parent_cor,
+            &parent_jt,
+            5,
+            &m5,
+            super::load_rows,
+        );
         // SAFETY: the CPU has AVX, checked above.
         unsafe { coriolis_from_parent_avx(&mut avx, &parent_cor, &parent_jt, 5, &m5) };
-        assert!(plain.iter().any(|x| *x != 0.0));
-        assert_eq!(bits(&plain), bits(&avx));
         let (mut icd_plain, mut icd_avx) = (vec![0.0; len], vec![0.0; len]);
         coriolis_meld_any(
             &mut plain,
@@ -3703,13 +3870,17 @@ mod test {
         let start0 = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
         let start1 = DMatrix::<Real>::from_fn(ndofs, ndofs, |_, _| next());
         let bits = |x: &DMatrix<Real>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        let cases: [&[(usize, usize)]; 6] = [
+        // The last two end at the matrix's last row (AVX's masked loads and stores reach
+        // no further than the range).
+        let cases: [&[(usize, usize)]; 8] = [
             &[(0, 6)],
             &[(0, 9)],
             &[(0, 6), (9, 3)],
             &[(0, 6), (12, 1), (20, 2)],
             &[(3, 8), (16, 8), (30, 1)],
             &[(0, 45)],
+            &[(0, 6), (45, 3)],
+            &[(0, 48)],
         ];
         for ranges in cases {
             let (mut ref0, mut ref1) = (start0.clone(), start1.clone());
@@ -3750,6 +3921,7 @@ mod test {
                 [w0.as_slice(), w1.as_slice()],
                 &ct,
                 ranges,
+                super::add_dots_any,
             );
             assert_eq!(bits(&portable0), bits(&ref0), "{ranges:?} without AVX");
             assert_eq!(bits(&portable1), bits(&ref1), "{ranges:?} without AVX");
