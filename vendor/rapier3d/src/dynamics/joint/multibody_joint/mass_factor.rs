@@ -30,6 +30,23 @@ use na::{DMatrix, Dim, Dyn, LU, Matrix, StorageMut};
 /// take a heap buffer, or are solved one row at a time.
 pub(crate) const MAX_DOFS: usize = 64;
 
+/// AVX's mask that enables the first `k` of eight `f32` lanes (`k <= 8`), for the masked
+/// loads and stores of the short runs here and in `multibody.rs`: a masked-off lane is
+/// neither read nor written.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(all(feature = "std", feature = "f32", target_arch = "x86_64"))]
+#[target_feature(enable = "avx")]
+#[inline]
+pub(crate) unsafe fn first_lanes(k: usize) -> core::arch::x86_64::__m256i {
+    const MASKS: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    assert!(k <= 8, "{k} lanes of 8");
+    // SAFETY: entries `8 - k..16 - k` of `MASKS`, inside it; the CPU has AVX (the
+    // caller's contract).
+    unsafe { core::arch::x86_64::_mm256_loadu_si256(MASKS.as_ptr().add(8 - k).cast()) }
+}
+
 /// A factorised augmented mass matrix, solved with [`MassFactor::solve_mut`].
 ///
 /// Dof `k`'s ancestors `c = chain(k)` (ascending) form a chain, so the ancestors of its
@@ -400,12 +417,9 @@ fn sub_scaled_any(y: &mut [Real], x: &[Real], s: Real) {
 #[inline]
 unsafe fn sub_scaled_avx(y: &mut [Real], x: &[Real], s: Real) {
     use core::arch::x86_64::{
-        _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_mul_ps, _mm256_set1_ps,
-        _mm256_sub_ps,
+        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_sub_ps,
     };
     const LANES: usize = 8;
-    // `MASKS[LANES - k..][..LANES]` enables the first `k` lanes.
-    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
     let n = y.len();
     assert!(x.len() >= n);
     let scale = _mm256_set1_ps(s);
@@ -415,7 +429,7 @@ unsafe fn sub_scaled_avx(y: &mut [Real], x: &[Real], s: Real) {
         // SAFETY: the CPU has AVX (the caller's contract); the masked loads and stores
         // touch only the first `k` lanes, entries `t..t + k` of `y` and `x`, inside both.
         unsafe {
-            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - k).cast());
+            let mask = first_lanes(k);
             let py = y.as_mut_ptr().add(t);
             let product = _mm256_mul_ps(_mm256_maskload_ps(x.as_ptr().add(t), mask), scale);
             let difference = _mm256_sub_ps(_mm256_maskload_ps(py, mask), product);

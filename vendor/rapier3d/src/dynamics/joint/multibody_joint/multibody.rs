@@ -2833,11 +2833,8 @@ unsafe fn add_dots_avx(
     dots: [&[Real]; 3],
     ranges: &[(usize, usize)],
 ) {
-    use core::arch::x86_64::{
-        _mm256_add_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
-    };
-    // `MASKS[8 - k..16 - k]` enables the first `k` lanes.
-    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    use super::mass_factor::first_lanes;
+    use core::arch::x86_64::{_mm256_add_ps, _mm256_maskload_ps, _mm256_maskstore_ps};
     let mut a = 0;
     for &(s, n) in ranges {
         // Checked once, so the pointers below stay inside the slices.
@@ -2846,11 +2843,11 @@ unsafe fn add_dots_avx(
         let mut t = 0;
         while t < n {
             let k = (n - t).min(LANES);
-            // SAFETY: the CPU has AVX (the caller's contract); `MASKS[LANES - k..]` has
-            // `LANES` entries; each masked load and store touches only the first `k` lanes,
-            // entries `t..t + k` of ranges checked above to lie inside their slices.
+            // SAFETY: the CPU has AVX (the caller's contract); each masked load and store
+            // touches only the first `k` lanes, entries `t..t + k` of ranges checked above
+            // to lie inside their slices.
             unsafe {
-                let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - k).cast());
+                let mask = first_lanes(k);
                 let p0 = out0.as_mut_ptr().add(s + t);
                 let p1 = out1.as_mut_ptr().add(s + t);
                 let d0 = _mm256_maskload_ps(dots[0].as_ptr().add(a + t), mask);
@@ -2922,9 +2919,8 @@ fn load_rows(src: &[Real], block: usize, row0: usize, valid: usize) -> Rows3 {
 #[target_feature(enable = "avx")]
 #[inline]
 unsafe fn load_rows_avx(src: &[Real], block: usize, row0: usize, valid: usize) -> Rows3 {
-    use core::arch::x86_64::{_mm256_loadu_si256, _mm256_maskload_ps, _mm256_storeu_ps};
-    // `MASKS[LANES - k..][..LANES]` enables the first `k` lanes.
-    const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+    use super::mass_factor::first_lanes;
+    use core::arch::x86_64::{_mm256_maskload_ps, _mm256_storeu_ps};
     let mut rows = [[0.0; LANES]; 3];
     if valid == 0 {
         // Past the parent's blocks.
@@ -2934,10 +2930,10 @@ unsafe fn load_rows_avx(src: &[Real], block: usize, row0: usize, valid: usize) -
     for (r, row) in rows.iter_mut().enumerate() {
         let at = (block * SPATIAL_DIM + row0 + r) * LANES;
         let src = &src[at..at + LANES];
-        // SAFETY: the CPU has AVX (the caller's contract); `MASKS[LANES - valid..]` has
-        // `LANES` entries; the load reads inside `src`, `LANES` entries long.
+        // SAFETY: the CPU has AVX (the caller's contract); the load reads inside `src`,
+        // `LANES` entries long.
         unsafe {
-            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - valid).cast());
+            let mask = first_lanes(valid);
             _mm256_storeu_ps(row.as_mut_ptr(), _mm256_maskload_ps(src.as_ptr(), mask));
         }
     }
@@ -3117,20 +3113,19 @@ fn coriolis_meld_any(
 unsafe fn fused_product_fma(out: &mut [Real], m: &[Real], j: &[Real], s: usize, n: usize) {
     #[cfg(feature = "f32")]
     {
+        use super::mass_factor::first_lanes;
         use core::arch::x86_64::{
-            __m256, _mm256_fmadd_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
-            _mm256_set1_ps, _mm256_setzero_ps,
+            __m256, _mm256_fmadd_ps, _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_set1_ps,
+            _mm256_setzero_ps,
         };
         const D: usize = SPATIAL_DIM;
-        // `MASKS[LANES - D..][..LANES]` enables the first `D` lanes.
-        const MASKS: [i32; 2 * LANES] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
         assert!(D <= LANES && m.len() >= D * D);
         assert!(j.len() >= (s + n) * D && out.len() >= (s + n) * D);
         // SAFETY: the CPU has AVX and FMA (the caller's contract); each masked load and
         // store touches the first `D` lanes only: a column of `m`, or column `c` of `j` or
         // `out`, inside the lengths checked above.
         unsafe {
-            let mask = _mm256_loadu_si256(MASKS.as_ptr().add(LANES - D).cast());
+            let mask = first_lanes(D);
             let columns: [__m256; D] =
                 core::array::from_fn(|k| _mm256_maskload_ps(m.as_ptr().add(k * D), mask));
             for c in s..s + n {
