@@ -670,11 +670,12 @@ impl Multibody {
         let check_implicit_coriolis_divergence = dt * self.velocities.amax() >= 1.0e-3;
         // Generalized forces that derive from positions or external inputs
         // (gravity, user forces, spring position terms).
-        let mut pos_forces = DVector::zeros(if check_implicit_coriolis_divergence {
-            self.ndofs
-        } else {
-            0
-        });
+        // Strider patch: this vector and the copy of the forces below are the workspace's,
+        // not allocated each step; they are written here before anything reads them.
+        let mut pos_forces = core::mem::take(&mut self.workspace.pos_forces);
+        if check_implicit_coriolis_divergence {
+            scratch_zeros(&mut pos_forces, self.ndofs);
+        }
 
         // Strider patch: a link's body Jacobian is zero outside the columns of its own and
         // its ancestors' dofs (`link_column_ranges`), so its forces reach only those
@@ -785,11 +786,11 @@ impl Multibody {
 
         // Snapshot the full generalized forces: the energy guard may need them
         // for a re-solve with the plain mass matrix.
-        let gen_forces = if check_implicit_coriolis_divergence {
-            self.accelerations.clone()
-        } else {
-            DVector::zeros(0)
-        };
+        let mut gen_forces = core::mem::take(&mut self.workspace.gen_forces);
+        if check_implicit_coriolis_divergence {
+            scratch_zeros(&mut gen_forces, self.ndofs);
+            gen_forces.copy_from(&self.accelerations);
+        }
 
         self.augmented_mass_indices
             .with_rearranged_rows_mut(&mut self.accelerations, |accs| {
@@ -799,6 +800,8 @@ impl Multibody {
         if check_implicit_coriolis_divergence {
             self.free_velocity_energy_guard(dt, &gen_forces, &pos_forces);
         }
+        self.workspace.pos_forces = pos_forces;
+        self.workspace.gen_forces = gen_forces;
     }
 
     // If the semi-implicit coriolis solve introduces more energy than the external
@@ -813,6 +816,26 @@ impl Multibody {
     fn free_velocity_energy_guard(&mut self, dt: Real, gen_forces: &DVector, pos_forces: &DVector) {
         let eff_dim = self.augmented_mass_indices.dim_after_removal(self.ndofs);
         if eff_dim == 0 {
+            return;
+        }
+
+        // Strider patch: with no kinematic dof nothing is rearranged, so the vectors are
+        // read where they are and the two products go into the workspace's buffers: the
+        // same `gemv` as `m * &a` and `m * v` (nalgebra multiplies by a one-column matrix
+        // through it), on the same values, so the same bits (`energy_guard_in_place_*`).
+        if self.augmented_mass_indices.first_to_remove == IndexSequence::NONE {
+            let excess = energy_excess_in_place(
+                self.augmented_mass.view((0, 0), (eff_dim, eff_dim)),
+                &self.velocities,
+                gen_forces,
+                pos_forces,
+                &self.accelerations,
+                dt,
+                &mut self.workspace.guard_products,
+            );
+            if !excess.is_some_and(|e| e <= 0.0) {
+                self.fall_back_to_plain_mass(gen_forces);
+            }
             return;
         }
 
@@ -849,24 +872,24 @@ impl Multibody {
 
         match energy_delta_minus_work(&self.accelerations) {
             Some(excess) if excess <= 0.0 => (), // Implicit update didn’t introduce too much extra energy.
-            _ => {
-                // The implicit solve injected energy (or produced non-finite
-                // values): fall back to the plain mass matrix.
-                self.accelerations.copy_from(gen_forces);
-                self.augmented_mass_indices.with_rearranged_rows_mut(
-                    &mut self.accelerations,
-                    |accs| {
-                        self.inv_augmented_mass.solve_mut(accs);
-                    },
-                );
+            _ => self.fall_back_to_plain_mass(gen_forces),
+        }
+    }
 
-                // Last-chance check: if all else fails, just clear the accelerations vector
-                // instead of breaking the simulation. Hopefully it will get back to a
-                // sane result in a close timestep.
-                if !self.accelerations.iter().all(|x| x.is_finite()) {
-                    self.accelerations.fill(0.0);
-                }
-            }
+    /// The implicit solve injected energy (or produced non-finite values): the
+    /// accelerations again from `gen_forces`, with the plain mass matrix.
+    fn fall_back_to_plain_mass(&mut self, gen_forces: &DVector) {
+        self.accelerations.copy_from(gen_forces);
+        self.augmented_mass_indices
+            .with_rearranged_rows_mut(&mut self.accelerations, |accs| {
+                self.inv_augmented_mass.solve_mut(accs);
+            });
+
+        // Last-chance check: if all else fails, just clear the accelerations vector
+        // instead of breaking the simulation. Hopefully it will get back to a
+        // sane result in a close timestep.
+        if !self.accelerations.iter().all(|x| x.is_finite()) {
+            self.accelerations.fill(0.0);
         }
     }
 
@@ -2429,6 +2452,49 @@ impl Multibody {
 
         *j_id += self.ndofs * 2;
     }
+}
+
+/// Strider patch: `v` as a vector of `n` entries, its contents scratch (zeros when it had
+/// to be allocated).
+fn scratch_zeros(v: &mut DVector, n: usize) {
+    if v.len() != n {
+        *v = DVector::zeros(n);
+    } else {
+        v.as_mut_slice().fill(0.0);
+    }
+}
+
+/// Strider patch: [`Multibody::free_velocity_energy_guard`]'s test for a multibody with no
+/// kinematic dof, on its vectors in place: the energy the implicit solve's accelerations
+/// `a` add over the step, less the forces' work and a margin (`None` for a non-finite
+/// `a`). Upstream's arithmetic in upstream's order: `m * x` is `gemv` (a product by a
+/// one-column matrix is computed by it), here into `products` instead of a new vector.
+fn energy_excess_in_place(
+    m: na::DMatrixView<Real>,
+    v: &DVector,
+    f: &DVector,
+    f_pos: &DVector,
+    a: &DVector,
+    dt: Real,
+    products: &mut [DVector; 2],
+) -> Option<Real> {
+    if !a.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let [m_a, m_v] = products;
+    if m_a.len() != a.len() {
+        *m_a = DVector::zeros(a.len());
+        *m_v = DVector::zeros(a.len());
+    }
+    m_a.gemv(1.0, &m, a, 0.0);
+    let energy_delta = dt * v.dot(m_a) + 0.5 * dt * dt * a.dot(m_a);
+    let work = dt * v.dot(f) + 0.5 * dt * dt * a.dot(f_pos);
+    // Margin: a small fraction of the current kinetic energy to absorb
+    // discretization error on healthy steps.
+    m_v.gemv(1.0, &m, v, 0.0);
+    let kinetic_energy = 0.5 * v.dot(m_v);
+    let energy_margin = 1.0e-2 * kinetic_energy + 1.0e-8;
+    Some(energy_delta - work - energy_margin)
 }
 
 #[cfg_attr(feature = "serde-serialize", derive(Serialize, Deserialize))]
@@ -4100,5 +4166,81 @@ mod test {
                 assert_eq!(bits(&ours), bits(&reference), "columns {s}..{}", s + n);
             }
         }
+    }
+
+    /// Strider patch: the energy guard's test on the vectors in place gives upstream's
+    /// figure bit for bit: `m * &a` and `m * v` on copies (upstream) against `gemv` into
+    /// kept buffers, over a mass-like matrix with structural zeros, with stale buffers and
+    /// with none. It fails if a product is summed in another order (by rows, checked).
+    #[test]
+    fn energy_guard_in_place_matches_upstream_bit_for_bit() {
+        use super::energy_excess_in_place;
+        use crate::math::{DVector, Real};
+        use na::DMatrix;
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((state >> 8) as Real / (1u32 << 24) as Real - 0.5) * 40.0
+        };
+        let upstream =
+            |m: &DMatrix<Real>, v: &DVector, f: &DVector, fp: &DVector, a: &DVector, dt: Real| {
+                let (v, f, fp) = (v.clone(), f.clone(), fp.clone());
+                let (v, f, fp) = (v.rows(0, v.len()), f.rows(0, f.len()), fp.rows(0, fp.len()));
+                let m = m.view((0, 0), (m.nrows(), m.ncols()));
+                let a = a.clone().rows(0, a.len()).into_owned();
+                let m_a = m * &a;
+                let energy_delta = dt * v.dot(&m_a) + 0.5 * dt * dt * a.dot(&m_a);
+                let work = dt * v.dot(&f) + 0.5 * dt * dt * a.dot(&fp);
+                let kinetic_energy = 0.5 * v.dot(&(m * v));
+                energy_delta - work - (1.0e-2 * kinetic_energy + 1.0e-8)
+            };
+        let mut products = [DVector::zeros(0), DVector::zeros(0)];
+        let mut by_rows_differs = false;
+        for (round, n) in [6, 9, 18, 24, 42, 18].into_iter().enumerate() {
+            // Zero where neither dof is the other's ancestor, as in a legged tree: the root's
+            // six couple with all, each leg's three only with themselves and the root.
+            let m = DMatrix::<Real>::from_fn(n, n, |i, j| {
+                if i < 6 || j < 6 || (i - 6) / 3 == (j - 6) / 3 {
+                    next()
+                } else {
+                    0.0
+                }
+            });
+            let v = DVector::from_fn(n, |_, _| next());
+            let f = DVector::from_fn(n, |_, _| next());
+            let fp = DVector::from_fn(n, |_, _| next());
+            let a = DVector::from_fn(n, |_, _| next() * 1.0e-3);
+            let dt = 1.0 / 240.0;
+            let here =
+                energy_excess_in_place(m.view((0, 0), (n, n)), &v, &f, &fp, &a, dt, &mut products)
+                    .expect("finite accelerations");
+            assert_eq!(
+                here.to_bits(),
+                upstream(&m, &v, &f, &fp, &a, dt).to_bits(),
+                "round {round}, {n} dofs"
+            );
+            // The check can fail: `M a` summed by rows (a dot product each) is other bits.
+            let by_rows = DVector::from_fn(n, |i, _| m.row(i).transpose().dot(&a));
+            by_rows_differs |= by_rows
+                .iter()
+                .zip((&m * &a).iter())
+                .any(|(x, y)| x.to_bits() != y.to_bits());
+        }
+        assert!(by_rows_differs, "summing by rows should change some bits");
+        let mut bad = DVector::from_element(6, 1.0);
+        bad[3] = Real::NAN;
+        let m = DMatrix::<Real>::identity(6, 6);
+        assert!(
+            energy_excess_in_place(
+                m.view((0, 0), (6, 6)),
+                &bad,
+                &bad,
+                &bad,
+                &bad,
+                0.01,
+                &mut products
+            )
+            .is_none()
+        );
     }
 }

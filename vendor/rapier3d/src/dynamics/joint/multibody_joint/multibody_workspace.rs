@@ -33,6 +33,12 @@ pub(crate) struct MultibodyWorkspace {
     /// Strider patch: what forward kinematics reads, written before it is compared with
     /// the last call's (`Multibody::kinematics_inputs_unchanged`).
     pub kinematics_inputs: Vec<u32>,
+    /// Strider patch: `update_acceleration`'s position-derived forces and its copy of the
+    /// generalised forces, for the energy guard; scratch.
+    pub pos_forces: DVector,
+    pub gen_forces: DVector,
+    /// Strider patch: the energy guard's `M a` and `M v`; scratch.
+    pub guard_products: [DVector; 2],
 }
 
 /// Strider patch: a copy has the workspace's sizes and none of its contents, which every
@@ -62,6 +68,9 @@ impl MultibodyWorkspace {
             coriolis: Vec::new(),
             coriolis_dt: Vec::new(),
             kinematics_inputs: Vec::new(),
+            pos_forces: DVector::zeros(0),
+            gen_forces: DVector::zeros(0),
+            guard_products: [DVector::zeros(0), DVector::zeros(0)],
         }
     }
 
