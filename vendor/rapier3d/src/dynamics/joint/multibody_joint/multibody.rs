@@ -255,6 +255,9 @@ impl Clone for Multibody {
         // Read across calls within a step (`fill_jacobians_unsolved`): never another
         // tree's of the same sizes.
         self.workspace.col_ranges.clone_from(&workspace.col_ranges);
+        self.workspace
+            .col_ranges_key
+            .clone_from(&workspace.col_ranges_key);
     }
 }
 
@@ -682,8 +685,7 @@ impl Multibody {
         // generalised forces. Over the other columns upstream's `gemv_tr` added `1·(+0)` (a
         // dot product of a zero column with finite forces) to an entry that started at +0,
         // which leaves it unchanged: the same bits (docs/rapier.md, "Mass-matrix sparsity").
-        let mut col_ranges = core::mem::take(&mut self.workspace.col_ranges);
-        link_column_ranges(&self.links, &mut col_ranges);
+        let col_ranges = self.workspace.column_ranges(&self.links);
 
         // Eqn 42 to 45
         for i in 0..self.links.len() {
@@ -934,8 +936,7 @@ impl Multibody {
         // products below are done over those columns only. Outside them both operands are
         // zero and the dense product left +0, which the copy from the parent already holds:
         // the same bits.
-        let mut ranges = core::mem::take(&mut self.workspace.jacobian_ranges);
-        link_column_ranges(&self.links, &mut ranges);
+        let ranges = self.workspace.column_ranges(&self.links);
         for i in 0..self.links.len() {
             let link = &self.links[i];
             if self.body_jacobians[i].ncols() != self.ndofs {
@@ -996,7 +997,7 @@ impl Multibody {
                 }
             }
         }
-        self.workspace.jacobian_ranges = ranges;
+        self.workspace.col_ranges = ranges;
     }
 
     /// The upstream dense body Jacobians, the reference the sparse ones are tested against.
@@ -1350,8 +1351,7 @@ impl Multibody {
         // its ancestors' dofs, so each link's `Jᵀ M J` and `Jᵀ C` only touch those rows and
         // columns. Assemble them over the nonzero column ranges instead of the full
         // `ndofs x ndofs` products (docs/rapier.md, "Mass-matrix sparsity").
-        let mut col_ranges = core::mem::take(&mut self.workspace.col_ranges);
-        link_column_ranges(&self.links, &mut col_ranges);
+        let col_ranges = self.workspace.column_ranges(&self.links);
         // `M J` for each of the two mass matrices.
         let [mut work, mut acc_work] = core::mem::take(&mut self.workspace.mass_work);
         if work.ncols() != self.ndofs {
@@ -2685,7 +2685,7 @@ unsafe fn solve_rows_avx(
 /// Fills `ranges[i]` with link `i`'s nonzero body-Jacobian columns `(start, len)`: its
 /// ancestors' and its own dofs, adjacent runs merged. Links come parents first. Reuses the
 /// vectors already there.
-fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usize)>>) {
+pub(crate) fn link_column_ranges(links: &[MultibodyLink], ranges: &mut Vec<Vec<(usize, usize)>>) {
     ranges.resize_with(links.len(), Vec::new);
     for (i, link) in links.iter().enumerate() {
         debug_assert!(
@@ -4242,5 +4242,65 @@ mod test {
             )
             .is_none()
         );
+    }
+
+    /// Strider patch: the workspace's column ranges are recomputed whenever what they are a
+    /// function of changes, and only then: two trees whose links have the same first dofs
+    /// and dof counts but another parent (a chain and a fork) get their own ranges from one
+    /// workspace, and a multibody grown a joint at a time, in shuffled orders, has fresh
+    /// ranges after every insertion (it fails if the key leaves out the parent).
+    #[test]
+    fn cached_column_ranges_follow_the_tree() {
+        use super::link_column_ranges;
+        use crate::dynamics::joint::multibody_joint::multibody_workspace::MultibodyWorkspace;
+        let joint = RevoluteJoint::new(Vector::X);
+        let fresh = |mb: &super::Multibody| {
+            let mut ranges = Vec::new();
+            link_column_ranges(&mb.links, &mut ranges);
+            ranges
+        };
+        // a-b-c against a-b, a-c: links of 6, 1 and 1 dofs either way.
+        let tree = |fork: bool| {
+            let mut bodies = RigidBodySet::new();
+            let mut joints = MultibodyJointSet::new();
+            let [a, b, c] = [(); 3].map(|_| bodies.insert(RigidBodyBuilder::dynamic()));
+            let h = joints.insert(a, b, joint, true).unwrap();
+            joints
+                .insert(if fork { a } else { b }, c, joint, true)
+                .unwrap();
+            joints.get(h).unwrap().0.clone()
+        };
+        let (chain, fork) = (tree(false), tree(true));
+        assert_ne!(fresh(&chain), fresh(&fork));
+        let mut workspace = MultibodyWorkspace::new();
+        for mb in [&chain, &fork, &fork, &chain] {
+            let ranges = workspace.column_ranges(&mb.links);
+            assert_eq!(ranges, fresh(mb));
+            workspace.col_ranges = ranges;
+        }
+
+        let mut rnd = oorandom::Rand32::new(4321);
+        for _ in 0..4 {
+            let mut bodies = RigidBodySet::new();
+            let mut joints = MultibodyJointSet::new();
+            let handles: Vec<_> = (0..12)
+                .map(|_| bodies.insert(RigidBodyBuilder::dynamic()))
+                .collect();
+            let mut order: Vec<usize> = (1..12).collect();
+            let n = order.len() as u32;
+            for l in 0..order.len() {
+                order.swap(l, rnd.rand_range(0..n) as usize);
+            }
+            let mut workspace = MultibodyWorkspace::new();
+            for i in order {
+                // Each body hangs from an earlier one: a tree with forks.
+                let parent = handles[rnd.rand_range(0..i as u32) as usize];
+                let h = joints.insert(parent, handles[i], joint, true).unwrap();
+                let mb = &joints.get(h).unwrap().0;
+                let ranges = workspace.column_ranges(&mb.links);
+                assert_eq!(ranges, fresh(mb));
+                workspace.col_ranges = ranges;
+            }
+        }
     }
 }

@@ -1,5 +1,7 @@
 use crate::alloc_prelude::*;
+use crate::dynamics::MultibodyLink;
 use crate::dynamics::RigidBodyVelocity;
+use crate::dynamics::joint::multibody_joint::multibody::link_column_ranges;
 use crate::math::{DVector, Jacobian, Real};
 
 /// A temporary workspace for various updates of the multibody.
@@ -8,17 +10,16 @@ use crate::math::{DVector, Jacobian, Real};
 pub(crate) struct MultibodyWorkspace {
     pub accs: Vec<RigidBodyVelocity<Real>>,
     pub ndofs_vec: DVector,
-    /// Strider patch: each link's nonzero body-Jacobian column ranges `(start, len)`.
-    /// Written by `update_mass_matrix` (and `update_acceleration`) and read by
-    /// `fill_jacobians_unsolved` later in the same step; a copy (`Clone`) has none, so it
-    /// takes the dense products until then, and `Multibody::clone_from` copies them.
+    /// Strider patch: each link's nonzero body-Jacobian column ranges `(start, len)`
+    /// (`link_column_ranges`), as [`Self::column_ranges`] last computed them: read by
+    /// `update_body_jacobians`, `update_mass_matrix`, `update_acceleration` and, later in
+    /// the same step, `fill_jacobians_unsolved`. A copy (`Clone`) has none, so it takes
+    /// the dense products until then, and `Multibody::clone_from` copies them with their
+    /// key.
     pub col_ranges: Vec<Vec<(usize, usize)>>,
-    /// Strider patch: the same ranges, as `update_body_jacobians` computes them (kept
-    /// apart: it runs before `update_mass_matrix`, and not always with it). Scratch: valid
-    /// only within `update_body_jacobians`, which computes them first (forward kinematics
-    /// may skip it, a copy of the workspace has none, and one taken into another's buffers
-    /// has that one's).
-    pub jacobian_ranges: Vec<Vec<(usize, usize)>>,
+    /// Strider patch: what `col_ranges` were computed from: each link's parent, first dof
+    /// and dof count, three words a link (`link_column_ranges` reads nothing else).
+    pub col_ranges_key: Vec<usize>,
     /// Strider patch: `M J` for one link and each of the two mass matrices, reused across
     /// links and steps.
     pub mass_work: [Jacobian<Real>; 2],
@@ -62,7 +63,7 @@ impl MultibodyWorkspace {
             accs: Vec::new(),
             ndofs_vec: DVector::zeros(0),
             col_ranges: Vec::new(),
-            jacobian_ranges: Vec::new(),
+            col_ranges_key: Vec::new(),
             mass_work: [Jacobian::zeros(0), Jacobian::zeros(0)],
             jacobian_blocks: Vec::new(),
             coriolis: Vec::new(),
@@ -78,6 +79,41 @@ impl MultibodyWorkspace {
     /// `Clone` gives a copy; the contents are scratch).
     pub fn same_sizes(&self, other: &Self) -> bool {
         self.accs.len() == other.accs.len() && self.ndofs_vec.len() == other.ndofs_vec.len()
+    }
+
+    /// Strider patch: the links' column ranges, taken out of the workspace (to be put back
+    /// in `col_ranges`): computed again only when a link's parent, first dof or dof count
+    /// changed since they were last computed, the same ranges otherwise. Three times a
+    /// step, recomputing them was about 1 % of a trial's instructions.
+    pub fn column_ranges(&mut self, links: &[MultibodyLink]) -> Vec<Vec<(usize, usize)>> {
+        let mut ranges = core::mem::take(&mut self.col_ranges);
+        let key = |link: &MultibodyLink| {
+            [
+                link.parent_internal_id,
+                link.assembly_id,
+                link.joint.ndofs(),
+            ]
+        };
+        let unchanged = ranges.len() == links.len()
+            && self.col_ranges_key.len() == 3 * links.len()
+            && links
+                .iter()
+                .zip(self.col_ranges_key.chunks_exact(3))
+                .all(|(link, k)| k == key(link));
+        if !unchanged {
+            link_column_ranges(links, &mut ranges);
+            self.col_ranges_key.clear();
+            self.col_ranges_key.extend(links.iter().flat_map(key));
+        }
+        debug_assert!(
+            {
+                let mut fresh = Vec::new();
+                link_column_ranges(links, &mut fresh);
+                fresh == ranges
+            },
+            "the cached column ranges are not the links'"
+        );
+        ranges
     }
 
     /// Resize the workspace so it is enough for `nlinks` links.
