@@ -790,8 +790,7 @@ impl Multibody {
         // for a re-solve with the plain mass matrix.
         let mut gen_forces = core::mem::take(&mut self.workspace.gen_forces);
         if check_implicit_coriolis_divergence {
-            scratch_zeros(&mut gen_forces, self.ndofs);
-            gen_forces.copy_from(&self.accelerations);
+            copy_matrix(&mut gen_forces, &self.accelerations);
         }
 
         self.augmented_mass_indices
@@ -821,60 +820,44 @@ impl Multibody {
             return;
         }
 
-        // Strider patch: with no kinematic dof nothing is rearranged, so the vectors are
-        // read where they are and the two products go into the workspace's buffers: the
-        // same `gemv` as `m * &a` and `m * v` (nalgebra multiplies by a one-column matrix
-        // through it), on the same values, so the same bits (`energy_guard_in_place_*`).
-        if self.augmented_mass_indices.first_to_remove == IndexSequence::NONE {
-            let excess = energy_excess_in_place(
-                self.augmented_mass.view((0, 0), (eff_dim, eff_dim)),
+        // Strider patch: the test on the vectors themselves where no dof is kinematic (none
+        // of ours): nothing to rearrange, and the two products go into the workspace's
+        // buffers. The same `gemv` as upstream's `m * &a` and `m * v` (nalgebra multiplies
+        // by a one-column matrix through it), on the same values: the same bits
+        // (`energy_guard_in_place_*`). With kinematic dofs, on rearranged copies as upstream.
+        let m = self.augmented_mass.view((0, 0), (eff_dim, eff_dim));
+        let products = &mut self.workspace.guard_products;
+        let excess = if self.augmented_mass_indices.first_to_remove == IndexSequence::NONE {
+            energy_excess_in_place(
+                m,
                 &self.velocities,
                 gen_forces,
                 pos_forces,
                 &self.accelerations,
                 dt,
-                &mut self.workspace.guard_products,
-            );
-            if !excess.is_some_and(|e| e <= 0.0) {
-                self.fall_back_to_plain_mass(gen_forces);
-            }
-            return;
-        }
-
-        // Move all quantities to the kinematic-reduced ordering of the
-        // factorized matrices (no-op when there is no kinematic dof).
-        let mut v = self.velocities.clone();
-        let mut f = gen_forces.clone();
-        let mut f_pos = pos_forces.clone();
-        self.augmented_mass_indices.rearrange_rows(&mut v, true);
-        self.augmented_mass_indices.rearrange_rows(&mut f, true);
-        self.augmented_mass_indices.rearrange_rows(&mut f_pos, true);
-
-        let m = self.augmented_mass.view((0, 0), (eff_dim, eff_dim));
-        let v = v.rows(0, eff_dim);
-        let f = f.rows(0, eff_dim);
-        let f_pos = f_pos.rows(0, eff_dim);
-
-        let energy_delta_minus_work = |accelerations: &DVector| -> Option<Real> {
-            let mut a = accelerations.clone();
-            self.augmented_mass_indices.rearrange_rows(&mut a, true);
-            let a = a.rows(0, eff_dim).into_owned();
-            if !a.iter().all(|x| x.is_finite()) {
-                return None;
-            }
-            let m_a = m * &a;
-            let energy_delta = dt * v.dot(&m_a) + 0.5 * dt * dt * a.dot(&m_a);
-            let work = dt * v.dot(&f) + 0.5 * dt * dt * a.dot(&f_pos);
-            // Margin: a small fraction of the current kinetic energy to absorb
-            // discretization error on healthy steps.
-            let kinetic_energy = 0.5 * v.dot(&(m * v));
-            let energy_margin = 1.0e-2 * kinetic_energy + 1.0e-8;
-            Some(energy_delta - work - energy_margin)
+                products,
+            )
+        } else {
+            // Move all quantities to the kinematic-reduced ordering of the
+            // factorized matrices.
+            let reduced = |x: &DVector| {
+                let mut x = x.clone();
+                self.augmented_mass_indices.rearrange_rows(&mut x, true);
+                x.rows(0, eff_dim).into_owned()
+            };
+            energy_excess_in_place(
+                m,
+                &reduced(&self.velocities),
+                &reduced(gen_forces),
+                &reduced(pos_forces),
+                &reduced(&self.accelerations),
+                dt,
+                products,
+            )
         };
-
-        match energy_delta_minus_work(&self.accelerations) {
-            Some(excess) if excess <= 0.0 => (), // Implicit update didn’t introduce too much extra energy.
-            _ => self.fall_back_to_plain_mass(gen_forces),
+        // Otherwise the implicit update introduced too much extra energy.
+        if !excess.is_some_and(|e| e <= 0.0) {
+            self.fall_back_to_plain_mass(gen_forces);
         }
     }
 
@@ -2464,8 +2447,8 @@ fn scratch_zeros(v: &mut DVector, n: usize) {
     }
 }
 
-/// Strider patch: [`Multibody::free_velocity_energy_guard`]'s test for a multibody with no
-/// kinematic dof, on its vectors in place: the energy the implicit solve's accelerations
+/// Strider patch: [`Multibody::free_velocity_energy_guard`]'s test, on the vectors in the
+/// factorised matrices' ordering: the energy the implicit solve's accelerations
 /// `a` add over the step, less the forces' work and a margin (`None` for a non-finite
 /// `a`). Upstream's arithmetic in upstream's order: `m * x` is `gemv` (a product by a
 /// one-column matrix is computed by it), here into `products` instead of a new vector.
