@@ -37,13 +37,19 @@ trial = {
     "upright_after_seconds": 1.0,
     "upright_after_feasible_seconds": 15.0,
     "confirm_substeps_factor": 2,
+    "confirm_substeps_upright_seconds": 1.0,
     "friction_margin": 0.25,
-    **experiment.get("trial", {}),
 }
+trial.update(experiment.get("trial", {}))
+if "confirm_substeps_upright_seconds" not in experiment.get("trial", {}):
+    trial.pop("confirm_substeps_upright_seconds")
 steps_per_second = run["control_hz"] * run["physics_substeps"]
 length = run["trial_seconds"]
 short = trial["upright_after_seconds"]
 long = max(trial["upright_after_feasible_seconds"], short)
+# The finer step's own window (`confirm_substeps_upright_seconds`). A database written
+# before that setting (2026-12-02) stores no such key: its finer step held the long window.
+finer_window = max(trial.get("confirm_substeps_upright_seconds", long), short)
 floors = trial["friction_margin"] > 0
 factor = trial["confirm_substeps_factor"]
 more = round(run.get("friction", 0.8) * (1 + trial["friction_margin"]), 6)
@@ -57,7 +63,7 @@ def confirmed_in_full(cost):
     if floors:
         cost["floors"] += 2 * (length + long)
     if factor > 1:
-        cost["finer step"] += factor * (length + long)
+        cost["finer step"] += factor * (length + finer_window)
 
 
 query = "SELECT kind, outcome FROM candidates"

@@ -161,10 +161,11 @@ fn check_lists_the_paper_runs() {
     );
     assert!(text.contains("trials of MAX to their end in"), "{text}");
     // A design that meets the brief costs more: its window and confirming trials are
-    // said, and what they come to: 5 trials' time of 20 s (the trial and its 15-s
-    // window) against the 6 s of one that misses the brief.
+    // said, and what they come to: the trial and its 15-s window, the two floors' with
+    // it, and the finer step's with its own 1-s window (2 x 6 s): 72 s against the 6 s
+    // of one that misses the brief.
     assert!(
-        text.contains("a design that meets the brief and is fitter than its cell's elite walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time), each with that window: 5 trials' time of 20 s against 6 s for one that misses the brief, up to 16.7 trials' time in all for such a trial (under ES, every child that meets the brief and beats its parent)"),
+        text.contains("a design that meets the brief and is fitter than its cell's elite walks its 15-s window and is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials, each with that window), then at 2x the physics steps (2 trials' time, with a 1-s window): 72 s of simulation at the run's step against 6 s for one that misses the brief, up to 12.0 trials' time in all for such a trial (under ES, every child that meets the brief and beats its parent)"),
         "{text}"
     );
     // The figure is not called a bound: it is not one.
@@ -216,14 +217,23 @@ fn check_says_what_the_confirming_floors_cost() {
     );
     // The run's floor at 0.8: a quarter less and more grip, the values fidelity takes.
     assert!(
-        text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a candidate"),
+        text.contains("simulated again before it counts: on floors of friction 1 and 0.6 (2 trials, each with that window): 60 s of simulation at the run's step against 6 s for one that misses the brief, up to 10.0 trials' time in all for such a candidate"),
         "{text}"
     );
     assert!(!text.contains("physics steps ("), "{text}");
     // The finer step alone.
     let text = check_text("finer.toml", "friction_margin = 0.0\n");
     assert!(
-        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time), each with that window: 3 trials' time of 20 s against 6 s for one that misses the brief, up to 10.0 trials' time in all"),
+        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time, with a 1-s window): 32 s of simulation at the run's step against 6 s for one that misses the brief, up to 5.3 trials' time in all"),
+        "{text}"
+    );
+    // The finer step with the long window too (`confirm_substeps_upright_seconds`).
+    let text = check_text(
+        "finer-long.toml",
+        "friction_margin = 0.0\nconfirm_substeps_upright_seconds = 15\n",
+    );
+    assert!(
+        text.contains("simulated again before it counts: at 2x the physics steps (2 trials' time, with that window): 60 s of simulation at the run's step against 6 s for one that misses the brief, up to 10.0 trials' time in all"),
         "{text}"
     );
     // No ES here, so nothing said of ES candidates.
@@ -231,7 +241,7 @@ fn check_says_what_the_confirming_floors_cost() {
     // No long window: the confirmations alone, and no window named.
     let text = check_text("nowindow.toml", "upright_after_feasible_seconds = 0\n");
     assert!(
-        text.contains("fitter than its cell's elite is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time): 5 trials' time of 6 s against 6 s for one that misses the brief, up to 5.0 trials' time in all"),
+        text.contains("fitter than its cell's elite is simulated again before it counts: on floors of friction 1 and 0.6 (2 trials), then at 2x the physics steps (2 trials' time): 30 s of simulation at the run's step against 6 s for one that misses the brief, up to 5.0 trials' time in all"),
         "{text}"
     );
     assert!(!text.contains("-s window"), "{text}");

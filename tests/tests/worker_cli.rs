@@ -301,7 +301,7 @@ fn eval_says_what_a_feasible_design_passed_besides_its_trial() {
     let text = stdout(&out);
     assert!(text.contains("outcome            valid"), "{text}");
     assert!(
-        text.contains("checked            stayed up 15 s after the trial; met the brief as written again on floors of friction 0.6 and 1 and at 480 Hz"),
+        text.contains("checked            stayed up 15 s after the trial; met the brief as written again on floors of friction 0.6 and 1 and at 480 Hz (staying up 1 s after it)"),
         "{text}"
     );
 }

@@ -159,7 +159,9 @@ impl Confirmation {
         all
     }
 
-    /// The context of this trial. It judges the brief as written, with no speed margin:
+    /// The context of this trial. The finer step's stay-up window is
+    /// `[trial] confirm_substeps_upright_seconds` (1 s by default), not the long one. It
+    /// judges the brief as written, with no speed margin:
     /// the margin absorbs the run's step's error in the run's own trial, and asked again
     /// here it refused designs for a few mm/s on a slipperier floor, or at a finer step
     /// where speed moves by 0.1-1 % (32 % of the refusals of the gated 1000-generation
@@ -168,7 +170,11 @@ impl Confirmation {
         let mut c = *ctx;
         c.limits.speed_margin = 0.0;
         match self {
-            Self::FinerStep(substeps) => c.settings.physics_substeps = substeps,
+            Self::FinerStep(substeps) => {
+                c.settings.physics_substeps = substeps;
+                // Its own window: the run's trial and the floors' held it the long one.
+                c.limits.upright_after_feasible_seconds = c.limits.confirm_substeps_upright_seconds;
+            }
             Self::Floor(friction) => c.settings.friction = friction,
         }
         c

@@ -1092,15 +1092,26 @@ fn a_confirming_trial_judges_the_brief_as_written_without_the_speed_margin() {
         ),
         other => panic!("expected a speed short of the margin only, got {other:?}"),
     }
-    // Meeting the brief as written, a confirming trial holds the design to the long window
-    // after it, shove included, as any trial fast enough for the brief: a candidate of a
-    // quick run (refused on the slippery floor there) meets the brief at 480 Hz and then
-    // tips past the window's 20 degrees at 11.4 s. (The floors, tried first, refuse it on
-    // the slippery one, where it tips too: the finer step's confirmation alone here.)
+    // Meeting the brief as written, the finer step's confirming trial holds the design to
+    // its own window after it (`confirm_substeps_upright_seconds`), shove included: a
+    // candidate of a quick run (refused on the slippery floor there) meets the brief at
+    // 480 Hz and then tips past the window's 20 degrees at 11.4 s. With the long window
+    // there it is refused; with the default 1 s it passes there (its run's trial held it
+    // 15 s at 240 Hz). (The floors, tried first, refuse it on the slippery one, where it
+    // tips too: the finer step's confirmation alone here.)
     let g = fixture("meets_the_brief_at_the_finer_step_then_falls.json");
     let mut finer_step_only = robust;
     finer_step_only.limits.friction_margin = 0.0;
     finer_step_only.limits.confirm_substeps_factor = 2;
+    assert_eq!(finer_step_only.limits.confirm_substeps_upright_seconds, 1.0);
+    let short = evaluate(
+        &finer_step_only,
+        &g,
+        Scheme::Static,
+        CandidateSeed::new(0, 0),
+    );
+    assert!(matches!(short, Outcome::Valid { .. }), "{short:?}");
+    finer_step_only.limits.confirm_substeps_upright_seconds = 15.0;
     match evaluate(
         &finer_step_only,
         &g,

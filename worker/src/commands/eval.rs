@@ -201,9 +201,11 @@ fn checks_passed(ctx: &EvalContext) -> String {
     }
     if l.confirm_substeps_factor > 1 {
         again.push(format!(
-            "at {} Hz",
+            "at {} Hz (staying up {} s after it)",
             ctx.settings.control_hz
-                * f64::from(ctx.settings.physics_substeps * l.confirm_substeps_factor)
+                * f64::from(ctx.settings.physics_substeps * l.confirm_substeps_factor),
+            l.confirm_substeps_upright_seconds
+                .max(l.upright_after_seconds)
         ));
     }
     if !again.is_empty() {
