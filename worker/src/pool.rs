@@ -340,6 +340,9 @@ mod tests {
         // by default, said here so that a change of default keeps it).
         let mut ctx = EvalContext::paper();
         ctx.limits.confirm_substeps_factor = 2;
+        // The finer step's fixture falls between 1 s (the default window there) and 15 s
+        // after its trial: the long window keeps a design that the finer step refuses.
+        ctx.limits.confirm_substeps_upright_seconds = 15.0;
         let pool = SimPool::new(NonZeroUsize::new(3).unwrap()).unwrap();
         let cores = Arc::new(Semaphore::new(3));
         let verdict = |o: &Outcome| match o {
