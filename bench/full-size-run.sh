@@ -51,8 +51,6 @@ calibrate before
 grep -E "Elapsed|User time" "$out/run.err" | sed 's/^\s*/run: /' | tee -a "$out/summary.txt"
 calibrate after
 
-# The run's experiment with the brief as written: the confirming trials ask it so, and the
-# checks ask what they confirm (docs/model.md section 6, "speed_margin").
 "$coordinator" export --db "$out/run.db" > "$out/export.json"
 python3 - "$out" <<'EOF'
 import json, random, sys
@@ -69,6 +67,8 @@ json.dump([e["genome"] for e in elites[:40]], open(f"{out}/top40.json", "w"))
 json.dump([e["genome"] for e in sample], open(f"{out}/random200.json", "w"))
 print(f"elites: {len(elites)} feasible; checking the {min(40, len(elites))} fittest and {len(sample)} random")
 EOF
+# The run's experiment with the brief as written: the confirming trials ask it so, and the
+# checks ask what they confirm (docs/model.md section 6, "speed_margin").
 python3 - "$experiment" "$out/as-written.toml" <<'EOF'
 import re, sys
 text = open(sys.argv[1]).read()
@@ -84,7 +84,7 @@ EOF
 for sample in top40 random200; do
   "$worker" fidelity --genomes "$out/$sample.json" --substeps 8,16,32 --stay-up 15 \
     --experiment "$out/as-written.toml" --csv "$out/$sample.fidelity.csv" \
-    > "$out/$sample.fidelity.txt" 2> /dev/null
+    > "$out/$sample.fidelity.txt" 2> "$out/$sample.fidelity.err"
   sed "s/^/$sample fidelity: /" "$out/$sample.fidelity.txt" | grep -E "feasible$|same verdict" \
     | tee -a "$out/summary.txt"
   python3 tests/python/pybullet_agreement.py "$out/$sample.json" --worker "$worker" \
